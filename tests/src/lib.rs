@@ -1,0 +1,1 @@
+//! Scenario tests across the rins crates live in `tests/`.
