@@ -9,7 +9,7 @@
 use core_nav::earth::GeoPoint;
 use core_nav::real::Real;
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig, VerticalChannel};
-use core_nav::table::{q_b_n, Axis};
+use core_nav::table::{q_b_n, Axis, EncoderInterpolator, TableAngle};
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
 const OMEGA_E: f64 = 7.292_115e-5;
