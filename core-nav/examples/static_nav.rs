@@ -36,7 +36,13 @@ fn run<T: Real>(minutes: f64, rate: f64) -> Result<(f64, f64, f64), core_nav::Na
     };
     let q0 = Quaternion::from(base.coords.map(T::lit));
     let first = cast(ideal(0, rate, &base, site.lat_rad, g));
-    let mut nav = Strapdown::new(StrapdownConfig::default(), site, Vector3::zeros(), q0, &first)?;
+    let mut nav = Strapdown::new(
+        StrapdownConfig::default(),
+        site,
+        Vector3::zeros(),
+        q0,
+        &first,
+    )?;
     let n = (minutes * 6000.0) as u64;
     for k in 1..=n {
         nav.step(&cast(ideal(k * 10_000, rate, &base, site.lat_rad, g)))?;
@@ -46,7 +52,11 @@ fn run<T: Real>(minutes: f64, rate: f64) -> Result<(f64, f64, f64), core_nav::Na
     let q = q_b_n(&s.q_s_n, Axis::Z, T::lit(theta));
     let e = quat_to_euler(&Quaternion::from(q.coords.map(|x| x.to_f64())));
     let h = (s.p_n.x.to_f64().powi(2) + s.p_n.y.to_f64().powi(2)).sqrt();
-    Ok((h, s.v_n.norm().to_f64(), (e.heading.to_degrees() - 30.0) * 3600.0))
+    Ok((
+        h,
+        s.v_n.norm().to_f64(),
+        (e.heading.to_degrees() - 30.0) * 3600.0,
+    ))
 }
 
 fn main() -> Result<(), core_nav::NavError> {
@@ -56,7 +66,10 @@ fn main() -> Result<(), core_nav::NavError> {
     println!(
         "ideal IMU, static base at 30.53 N, table {rate_dps} deg/s about z, {minutes} min at 100 Hz"
     );
-    println!("{:>5} {:>14} {:>14} {:>18}", "type", "horiz pos [m]", "|vel| [m/s]", "heading err [\"]");
+    println!(
+        "{:>5} {:>14} {:>14} {:>18}",
+        "type", "horiz pos [m]", "|vel| [m/s]", "heading err [\"]"
+    );
     let (h, v, a) = run::<f64>(minutes, rate_dps.to_radians())?;
     println!("{:>5} {h:>14.3e} {v:>14.3e} {a:>18.4}", "f64");
     let (h, v, a) = run::<f32>(minutes, rate_dps.to_radians())?;
