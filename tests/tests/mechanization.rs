@@ -144,14 +144,25 @@ fn run<T: Real>(
         q_b_n: vec![],
     };
     let q_true = world.q_b_n_true();
+    // The encoder is read at 50 Hz; the body attitude at each IMU time takes
+    // the angle from the interpolator (extrapolating from the last two reads
+    // as the MCU must), in the run's own float type.
+    const ENC_US: u64 = 20_000;
+    let mut enc = EncoderInterpolator::<T>::new(ENC_US);
+    let mut next_enc_us = 0;
     for k in 1..=n {
         let t_us = k * dt_us;
+        while next_enc_us <= t_us {
+            let a = TableAngle::from_rad_f64(world.theta(next_enc_us as f64 * 1e-6));
+            enc.push(next_enc_us, a).expect("encoder time increases");
+            next_enc_us += ENC_US;
+        }
         let s = nav.step(&cast(&world.sample(t_us))).expect("step");
         if (k as usize).is_multiple_of(every) || k == n {
             let t = t_us as f64 * 1e-6;
-            let theta = core_nav::real::wrap_pi(world.theta(t));
+            let theta = enc.angle_at(t_us).expect("encoder angle").rad;
             let q = Quaternion::from(
-                q_b_n(&s.q_s_n, world.axis, T::lit(theta))
+                q_b_n(&s.q_s_n, world.axis, theta)
                     .coords
                     .map(|x| x.to_f64()),
             );
