@@ -29,6 +29,9 @@ pub enum NavError {
     /// No encoder sample yet, or the requested time is too far outside the
     /// encoder samples to interpolate.
     NoEncoderData,
+    /// A rotation scheme with a zero or too-high rate, zero turns, an
+    /// unsupported position count or a negative dwell.
+    BadScheme,
 }
 
 impl core::fmt::Display for NavError {
@@ -45,6 +48,10 @@ impl core::fmt::Display for NavError {
             Self::NotEnoughSamples => write!(f, "not enough samples"),
             Self::NotStatic => write!(f, "accelerometers do not read 1 g: not static"),
             Self::NoEncoderData => write!(f, "no encoder angle available for this time"),
+            Self::BadScheme => write!(
+                f,
+                "rotation scheme out of range (rate, turns, positions or dwell)"
+            ),
         }
     }
 }

@@ -50,6 +50,7 @@ pub mod attitude;
 pub mod earth;
 pub mod error;
 pub mod real;
+pub mod scheme;
 pub mod strapdown;
 pub mod table;
 

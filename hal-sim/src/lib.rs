@@ -8,3 +8,6 @@
 //! recording spec's formulas evaluated exactly.
 
 pub mod ideal;
+pub mod imu;
+pub mod recording;
+pub mod rng;

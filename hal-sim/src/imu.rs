@@ -1,0 +1,525 @@
+//! The IMU error model: one equation per triad, every term switchable with a
+//! magnitude.
+//!
+//! For each triad (gyro `x = w_is_s`, rad/s; accelerometer `x = f_s`, m/s^2),
+//! per axis `i`, with `dT` the temperature change since turn-on:
+//!
+//! ```text
+//! y = Q( sat( (I + diag(s + s_T dT) + M) x + K2 x^2 + K3 x^3 + (a/2)|x|
+//!             + b0 + b_T dT + b_GM(t) + b_RW(t) + G f   (G: gyros only)
+//!             + n ) )
+//! ```
+//!
+//! `s` scale-factor error, `M` misalignment / installation (off-diagonal),
+//! `K2, K3` scale nonlinearity, `a` scale asymmetry (positive and negative
+//! rates see scales differing by `a`), `b0` turn-on bias, `b_T, s_T`
+//! temperature coefficients, `b_GM` first-order Gauss-Markov bias
+//! instability (`sigma`, `tau`), `b_RW` rate random walk, `G`
+//! g-sensitivity, `n` white noise of density `N` (per-sample `N/sqrt(dt)`;
+//! ARW / VRW), `sat` full-scale saturation, `Q` quantisation to the LSB.
+//! Sample-time jitter and latency act on when `x` is taken (see
+//! [`crate::sim`]).
+
+use crate::rng::Rng;
+use nalgebra::{Matrix3, Vector3};
+
+const DEG: f64 = core::f64::consts::PI / 180.0;
+const DPH: f64 = DEG / 3600.0; // deg/h in rad/s
+const G0: f64 = 9.806_65;
+
+/// Magnitudes of one triad's error terms (SI; random terms as 1 sigma).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct TriadSpec {
+    /// Turn-on bias, 1 sigma, unit (rad/s or m/s^2).
+    pub bias: f64,
+    /// Scale-factor error, 1 sigma, dimensionless.
+    pub scale: f64,
+    /// Misalignment, each off-diagonal entry 1 sigma, rad.
+    pub misalignment: f64,
+    /// Second-order scale nonlinearity K2 (all axes), 1/unit.
+    pub k2: f64,
+    /// Third-order scale nonlinearity K3 (all axes), 1/unit^2.
+    pub k3: f64,
+    /// Scale asymmetry (positive minus negative scale), dimensionless.
+    pub asymmetry: f64,
+    /// White-noise density (ARW in rad/sqrt(s), VRW in m/s/sqrt(s)).
+    pub white: f64,
+    /// Bias instability: Gauss-Markov sigma, unit.
+    pub bias_instability: f64,
+    /// Gauss-Markov correlation time, s.
+    pub bi_tau_s: f64,
+    /// Rate random walk, unit/sqrt(s).
+    pub rrw: f64,
+    /// Bias temperature coefficient, 1 sigma, unit/degC.
+    pub temp_bias: f64,
+    /// Scale temperature coefficient, 1 sigma, 1/degC.
+    pub temp_scale: f64,
+    /// Output resolution, unit (0: none).
+    pub lsb: f64,
+    /// Full scale, unit (0: none).
+    pub full_scale: f64,
+}
+
+/// Temperature of the sensor: warm-up from ambient.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TempSpec {
+    /// Ambient (turn-on) temperature, degC.
+    pub ambient_c: f64,
+    /// Self-heating rise at the end of warm-up, degC.
+    pub warmup_c: f64,
+    /// Warm-up time constant, s.
+    pub warmup_tau_s: f64,
+    /// Temperature output resolution, degC.
+    pub lsb_c: f64,
+}
+
+impl Default for TempSpec {
+    fn default() -> Self {
+        Self {
+            ambient_c: 25.0,
+            warmup_c: 6.0,
+            warmup_tau_s: 600.0,
+            lsb_c: 0.01,
+        }
+    }
+}
+
+/// A sensor's whole error budget.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImuSpec {
+    /// Profile name (`ideal`, `mtig`, `nav440`, `adis16405`, `icm42688`).
+    pub name: &'static str,
+    /// Model name for the recording's meta.
+    pub model: &'static str,
+    /// Gyro triad.
+    pub gyro: TriadSpec,
+    /// Accelerometer triad.
+    pub accel: TriadSpec,
+    /// Gyro g-sensitivity, each entry 1 sigma, rad/s per m/s^2.
+    pub g_sensitivity: f64,
+    /// Latency of the IMU samples behind their time stamps, s.
+    pub latency_s: f64,
+    /// Sample-time jitter, 1 sigma, s.
+    pub jitter_s: f64,
+    /// Temperature behaviour.
+    pub temp: TempSpec,
+}
+
+impl ImuSpec {
+    /// The profile named `name`.
+    pub fn by_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "ideal" => Self::ideal(),
+            "mtig" => Self::mtig(),
+            "nav440" => Self::nav440(),
+            "adis16405" => Self::adis16405(),
+            "icm42688" => Self::icm42688(),
+            _ => return None,
+        })
+    }
+
+    /// Names of the profiles.
+    pub const NAMES: [&'static str; 5] = ["ideal", "mtig", "nav440", "adis16405", "icm42688"];
+
+    /// No error at all.
+    pub fn ideal() -> Self {
+        Self {
+            name: "ideal",
+            model: "ideal",
+            gyro: TriadSpec::default(),
+            accel: TriadSpec::default(),
+            g_sensitivity: 0.0,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            temp: TempSpec {
+                warmup_c: 0.0,
+                lsb_c: 0.0,
+                ..TempSpec::default()
+            },
+        }
+    }
+
+    /// Xsens MTi-G. Xsens "MTi-G User Manual and Technical Documentation"
+    /// (MT0137P rev. H, 2010), Sec. 2.4 sensor specifications: rate of turn
+    /// full scale 300 deg/s, bias stability 1 deg/s, noise density
+    /// 0.05 deg/s/sqrt(Hz), g-sensitivity 0.1 deg/s/g, linearity 0.1 % FS,
+    /// alignment error 0.1 deg; acceleration full scale 50 m/s^2, bias
+    /// stability 0.02 m/s^2, noise 0.002 m/s^2/sqrt(Hz), linearity 0.2 % FS.
+    /// The paper (Du et al. 2016, Sec. 4, Fig. 6): ARW 3.0 deg/sqrt(h), Allan
+    /// minimum about 24 deg/h at 120 s.
+    pub fn mtig() -> Self {
+        let fs_g = 300.0 * DEG;
+        let fs_a = 50.0;
+        Self {
+            name: "mtig",
+            model: "Xsens MTi-G (simulated)",
+            gyro: TriadSpec {
+                bias: 0.2 * DEG, // residual after factory calibration, within the 1 deg/s
+                scale: 1e-3,
+                misalignment: 0.1 * DEG,
+                k2: 0.1e-2 / fs_g / 3.0, // 0.1 % FS as a 3-sigma quadratic bow
+                asymmetry: 2e-4,
+                white: 0.05 * DEG,
+                bias_instability: 24.0 * DPH / 0.62, // Allan floor 24 deg/h (GM peak 0.62 sigma)
+                bi_tau_s: 60.0,
+                rrw: 0.0,
+                temp_bias: 0.005 * DEG,
+                temp_scale: 2e-5,
+                lsb: 300.0 * DEG / 32768.0,
+                full_scale: fs_g,
+                k3: 0.0,
+            },
+            accel: TriadSpec {
+                bias: 0.02,
+                scale: 1e-3,
+                misalignment: 0.1 * DEG,
+                k2: 0.2e-2 / fs_a / 3.0,
+                asymmetry: 0.0,
+                white: 0.002,
+                bias_instability: 0.02 / 3.0,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.5e-3,
+                temp_scale: 2e-5,
+                lsb: fs_a / 32768.0,
+                full_scale: fs_a,
+                k3: 0.0,
+            },
+            g_sensitivity: 0.1 * DEG / G0 / 3.0,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            temp: TempSpec::default(),
+        }
+    }
+
+    /// MEMSIC (Crossbow) NAV440. Datasheet 6020-0035-01 rev. B: rate range
+    /// 200 deg/s, bias stability < 10 deg/h, ARW < 4.5 deg/sqrt(h), scale
+    /// factor < 1 %, nonlinearity < 0.1 % FS; accelerometer range 4 g, bias
+    /// stability < 1 mg, VRW < 0.1 m/s/sqrt(h). The paper (Sec. 4) measured
+    /// ARW about 0.4 deg/sqrt(h) and an Allan minimum of 11 deg/h at 120 s.
+    pub fn nav440() -> Self {
+        let fs_g = 200.0 * DEG;
+        let fs_a = 4.0 * G0;
+        Self {
+            name: "nav440",
+            model: "MEMSIC NAV440 (simulated)",
+            gyro: TriadSpec {
+                bias: 0.02 * DEG,
+                scale: 3e-3,
+                misalignment: 0.1 * DEG,
+                k2: 0.1e-2 / fs_g / 3.0,
+                asymmetry: 1e-4,
+                white: 0.4 * DEG / 60.0,
+                bias_instability: 11.0 * DPH / 0.62,
+                bi_tau_s: 60.0,
+                rrw: 0.0,
+                temp_bias: 0.002 * DEG,
+                temp_scale: 1e-5,
+                lsb: 200.0 * DEG / 32768.0,
+                full_scale: fs_g,
+                k3: 0.0,
+            },
+            accel: TriadSpec {
+                bias: 1e-3 * G0,
+                scale: 1e-3,
+                misalignment: 0.1 * DEG,
+                k2: 0.1e-2 / fs_a / 3.0,
+                asymmetry: 0.0,
+                white: 0.1 / 60.0,
+                bias_instability: 1e-3 * G0 / 3.0,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.1e-3 * G0,
+                temp_scale: 1e-5,
+                lsb: fs_a / 32768.0,
+                full_scale: fs_a,
+                k3: 0.0,
+            },
+            g_sensitivity: 0.01 * DEG / G0,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            temp: TempSpec::default(),
+        }
+    }
+
+    /// Analog Devices ADIS16405. Datasheet rev. B, Table 1: gyro 300 deg/s,
+    /// 0.05 deg/s/LSB, in-run bias stability 0.007 deg/s, ARW 2.0
+    /// deg/sqrt(h), initial bias 3 deg/s (before the user's null), linear
+    /// acceleration effect 0.05 deg/s/g, nonlinearity 0.1 %, axis-to-axis
+    /// misalignment 0.05 deg, bias temperature coefficient 0.01 deg/s/degC;
+    /// accelerometer 18 g, 3.33 mg/LSB, in-run bias stability 0.2 mg, VRW
+    /// 0.2 m/s/sqrt(h), initial bias 50 mg, nonlinearity 0.1 %.
+    pub fn adis16405() -> Self {
+        let fs_g = 300.0 * DEG;
+        let fs_a = 18.0 * G0;
+        Self {
+            name: "adis16405",
+            model: "Analog Devices ADIS16405 (simulated)",
+            gyro: TriadSpec {
+                bias: 0.5 * DEG,
+                scale: 3e-3,
+                misalignment: 0.05 * DEG,
+                k2: 0.1e-2 / fs_g / 3.0,
+                asymmetry: 1e-4,
+                white: 2.0 * DEG / 60.0,
+                bias_instability: 0.007 * DEG / 0.62,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.01 * DEG,
+                temp_scale: 4e-5,
+                lsb: 0.05 * DEG,
+                full_scale: fs_g,
+                k3: 0.0,
+            },
+            accel: TriadSpec {
+                bias: 50e-3 * G0,
+                scale: 3e-3,
+                misalignment: 0.05 * DEG,
+                k2: 0.1e-2 / fs_a / 3.0,
+                asymmetry: 0.0,
+                white: 0.2 / 60.0,
+                bias_instability: 0.2e-3 * G0 / 0.62,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.3e-3 * G0,
+                temp_scale: 4e-5,
+                lsb: 3.33e-3 * G0,
+                full_scale: fs_a,
+                k3: 0.0,
+            },
+            g_sensitivity: 0.05 * DEG / G0 / 3.0,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            temp: TempSpec::default(),
+        }
+    }
+
+    /// TDK InvenSense ICM-42688-P (the board's chip). Datasheet DS-000347
+    /// rev. 1.8, Tables 1-2, gyro at +-2000 deg/s: 16.4 LSB/(deg/s),
+    /// sensitivity error +-0.5 %, nonlinearity +-0.1 %, cross-axis +-1.25 %,
+    /// ZRO +-0.5 deg/s, ZRO temperature variation +-0.005 deg/s/degC, noise
+    /// 0.0028 deg/s/sqrt(Hz); accelerometer at +-16 g: 2048 LSB/g,
+    /// sensitivity error +-0.5 %, nonlinearity +-0.1 %, cross-axis +-1 %,
+    /// offset +-20 mg, offset temperature coefficient +-0.15 mg/degC, noise
+    /// 70 ug/sqrt(Hz). The datasheet states no bias instability: 5 deg/h and
+    /// 0.04 mg are assumed (typical published Allan minima for this class).
+    /// Datasheet +- values are taken as 1 sigma.
+    pub fn icm42688() -> Self {
+        let fs_g = 2000.0 * DEG;
+        let fs_a = 16.0 * G0;
+        Self {
+            name: "icm42688",
+            model: "TDK ICM-42688-P (simulated)",
+            gyro: TriadSpec {
+                bias: 0.5 * DEG,
+                scale: 5e-3,
+                misalignment: 1.25e-2 / core::f64::consts::SQRT_2,
+                k2: 1e-3 / fs_g,
+                asymmetry: 2e-4,
+                white: 0.0028 * DEG,
+                bias_instability: 5.0 * DPH / 0.62,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.005 * DEG,
+                temp_scale: 5e-5,
+                lsb: DEG / 16.4,
+                full_scale: fs_g,
+                k3: 0.0,
+            },
+            accel: TriadSpec {
+                bias: 20e-3 * G0,
+                scale: 5e-3,
+                misalignment: 1e-2 / core::f64::consts::SQRT_2,
+                k2: 1e-3 / fs_a,
+                asymmetry: 0.0,
+                white: 70e-6 * G0,
+                bias_instability: 0.04e-3 * G0 / 0.62,
+                bi_tau_s: 100.0,
+                rrw: 0.0,
+                temp_bias: 0.15e-3 * G0,
+                temp_scale: 5e-5,
+                lsb: G0 / 2048.0,
+                full_scale: fs_a,
+                k3: 0.0,
+            },
+            g_sensitivity: 0.005 * DEG / G0,
+            latency_s: 0.0,
+            jitter_s: 0.0,
+            temp: TempSpec {
+                lsb_c: 1.0 / 132.48,
+                ..TempSpec::default()
+            },
+        }
+    }
+}
+
+/// One triad's realised (turn-on) error values and noise state.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriadModel {
+    /// Turn-on bias, unit.
+    pub bias: Vector3<f64>,
+    /// Scale-factor errors.
+    pub scale: Vector3<f64>,
+    /// Misalignment (zero diagonal), rad.
+    pub misalignment: Matrix3<f64>,
+    /// K2 per axis, 1/unit.
+    pub k2: Vector3<f64>,
+    /// K3 per axis, 1/unit^2.
+    pub k3: Vector3<f64>,
+    /// Scale asymmetry per axis.
+    pub asymmetry: Vector3<f64>,
+    /// Bias temperature coefficients, unit/degC.
+    pub temp_bias: Vector3<f64>,
+    /// Scale temperature coefficients, 1/degC.
+    pub temp_scale: Vector3<f64>,
+    /// Noise and drift magnitudes from the spec.
+    pub spec: TriadSpec,
+    /// Gauss-Markov bias state, unit.
+    pub gm: Vector3<f64>,
+    /// Random-walk bias state, unit.
+    pub rw: Vector3<f64>,
+}
+
+impl TriadModel {
+    /// Draws the turn-on values of `spec` from `rng`.
+    pub fn realise(spec: &TriadSpec, rng: &mut Rng) -> Self {
+        let mut m = Matrix3::zeros();
+        for r in 0..3 {
+            for c in 0..3 {
+                let z = rng.normal();
+                if r != c {
+                    m[(r, c)] = spec.misalignment * z;
+                }
+            }
+        }
+        let gm = rng.normal3() * spec.bias_instability;
+        Self {
+            bias: rng.normal3() * spec.bias,
+            scale: rng.normal3() * spec.scale,
+            misalignment: m,
+            k2: Vector3::repeat(spec.k2),
+            k3: Vector3::repeat(spec.k3),
+            asymmetry: Vector3::repeat(spec.asymmetry),
+            temp_bias: rng.normal3() * spec.temp_bias,
+            temp_scale: rng.normal3() * spec.temp_scale,
+            spec: *spec,
+            gm,
+            rw: Vector3::zeros(),
+        }
+    }
+
+    /// Advances the bias processes by `dt` s.
+    pub fn advance(&mut self, dt: f64, rng: &mut Rng) {
+        let s = &self.spec;
+        if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 {
+            let phi = (-dt / s.bi_tau_s).exp();
+            let q = s.bias_instability * (1.0 - phi * phi).sqrt();
+            self.gm = self.gm * phi + rng.normal3() * q;
+        }
+        if s.rrw > 0.0 {
+            self.rw += rng.normal3() * (s.rrw * dt.sqrt());
+        }
+    }
+
+    /// The deterministic part of the output for truth `x` at temperature
+    /// change `dt_c` (no noise, saturation or quantisation), plus `extra`
+    /// bias (g-sensitivity).
+    pub fn apply(&self, x: &Vector3<f64>, dt_c: f64, extra: &Vector3<f64>) -> Vector3<f64> {
+        let scale = self.scale + self.temp_scale * dt_c;
+        let lin = x + scale.component_mul(x) + self.misalignment * x;
+        let nl = self.k2.component_mul(&x.component_mul(x))
+            + self.k3.component_mul(&x.map(|v| v * v * v))
+            + (self.asymmetry * 0.5).component_mul(&x.abs());
+        lin + nl + self.bias + self.temp_bias * dt_c + self.gm + self.rw + extra
+    }
+
+    /// Noise, saturation and quantisation on top of [`Self::apply`]'s value,
+    /// for a sample interval `dt` s.
+    pub fn finish(&self, y: Vector3<f64>, dt: f64, rng: &mut Rng) -> Vector3<f64> {
+        let s = &self.spec;
+        let mut y = y;
+        if s.white > 0.0 {
+            y += rng.normal3() * (s.white / dt.sqrt());
+        }
+        y.map(|v| {
+            let v = if s.full_scale > 0.0 {
+                v.clamp(-s.full_scale, s.full_scale)
+            } else {
+                v
+            };
+            if s.lsb > 0.0 {
+                (v / s.lsb).round() * s.lsb
+            } else {
+                v
+            }
+        })
+    }
+}
+
+/// A realised IMU: both triads, g-sensitivity, temperature, random streams.
+#[derive(Clone, Debug)]
+pub struct ImuModel {
+    /// The spec it was drawn from.
+    pub spec: ImuSpec,
+    /// Gyro triad.
+    pub gyro: TriadModel,
+    /// Accelerometer triad.
+    pub accel: TriadModel,
+    /// Gyro g-sensitivity, rad/s per m/s^2.
+    pub g_sens: Matrix3<f64>,
+    noise: Rng,
+}
+
+impl ImuModel {
+    /// Draws the turn-on errors of `spec` with `seed`.
+    pub fn new(spec: ImuSpec, seed: u64) -> Self {
+        let mut turn_on = Rng::new(seed, 1);
+        let gyro = TriadModel::realise(&spec.gyro, &mut turn_on);
+        let accel = TriadModel::realise(&spec.accel, &mut turn_on);
+        let g_sens = Matrix3::from_fn(|_, _| turn_on.normal() * spec.g_sensitivity);
+        Self {
+            spec,
+            gyro,
+            accel,
+            g_sens,
+            noise: Rng::new(seed, 2),
+        }
+    }
+
+    /// Sensor temperature `t_s` s after turn-on, degC (warm-up curve).
+    pub fn temperature_c(&self, t_s: f64) -> f64 {
+        let t = &self.spec.temp;
+        t.ambient_c + t.warmup_c * (1.0 - (-t_s.max(0.0) / t.warmup_tau_s.max(1e-9)).exp())
+    }
+
+    /// One output sample from the truth `(w_is_s, f_s)` at temperature
+    /// `temp_c`; `dt` s since the previous sample (advances the bias
+    /// processes). Returns `(gyro rad/s, accel m/s^2)`.
+    pub fn measure(
+        &mut self,
+        w: &Vector3<f64>,
+        f: &Vector3<f64>,
+        temp_c: f64,
+        dt: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        self.gyro.advance(dt, &mut self.noise);
+        self.accel.advance(dt, &mut self.noise);
+        let dt_c = temp_c - self.spec.temp.ambient_c;
+        let g = self.gyro.apply(w, dt_c, &(self.g_sens * f));
+        let a = self.accel.apply(f, dt_c, &Vector3::zeros());
+        (
+            self.gyro.finish(g, dt, &mut self.noise),
+            self.accel.finish(a, dt, &mut self.noise),
+        )
+    }
+
+    /// The temperature output (quantised), degC.
+    pub fn temp_output_c(&self, temp_c: f64) -> f64 {
+        let l = self.spec.temp.lsb_c;
+        if l > 0.0 {
+            (temp_c / l).round() * l
+        } else {
+            temp_c
+        }
+    }
+}
