@@ -46,6 +46,7 @@
 )]
 
 pub mod align;
+pub mod allan;
 pub mod attitude;
 pub mod earth;
 pub mod error;

@@ -191,6 +191,49 @@ impl<T: Real> EncoderInterpolator<T> {
     }
 }
 
+/// The table encoder's hardware counter (embedded-hal 1.0 has no encoder
+/// trait): a 16-bit quadrature count that wraps.
+pub trait QuadratureCounter {
+    /// What a read can fail with.
+    type Error: core::fmt::Debug;
+    /// The raw counter value.
+    ///
+    /// # Errors
+    /// The implementation's read error.
+    fn read_count(&mut self) -> Result<u16, Self::Error>;
+}
+
+/// Turns a wrapping 16-bit hardware encoder counter into an unwrapped
+/// count. Correct while the table moves less than half the counter range
+/// (32,768 counts: two turns at 16,384 counts/rev) between reads.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CounterUnwrapper {
+    last: Option<u16>,
+    total: i64,
+}
+
+impl CounterUnwrapper {
+    /// A fresh unwrapper: the first read defines count 0 + that read.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Takes a hardware read and returns the unwrapped count.
+    pub fn update(&mut self, raw: u16) -> i64 {
+        match self.last {
+            None => self.total = i64::from(raw),
+            Some(prev) => self.total += i64::from(raw.wrapping_sub(prev) as i16),
+        }
+        self.last = Some(raw);
+        self.total
+    }
+
+    /// The change the last read made, counts (for glitch checks).
+    pub fn total(&self) -> i64 {
+        self.total
+    }
+}
+
 /// `1 + d` form of `q_s_b` for a small table angle step (used by tests).
 pub fn delta_s_b<T: Real>(axis: Axis, dtheta: T) -> DeltaQuat<T> {
     crate::attitude::rotvec_to_delta(&(axis.unit::<T>() * dtheta))
@@ -199,6 +242,17 @@ pub fn delta_s_b<T: Real>(axis: Axis, dtheta: T) -> DeltaQuat<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn unwrapper_follows_many_turns_both_ways() {
+        let mut u = CounterUnwrapper::new();
+        let mut truth: i64 = 0;
+        // 100 turns forward, 100 back, in steps of 1,000 counts.
+        for k in 0..3_300_i64 {
+            truth += if k < 1_650 { 1_000 } else { -1_000 };
+            assert_eq!(u.update(truth.rem_euclid(65_536) as u16), truth);
+        }
+    }
 
     #[test]
     fn counts_and_rad_agree() {

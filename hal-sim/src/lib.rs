@@ -7,7 +7,12 @@
 //! at a constant rate and an error-free IMU on its axis, whose outputs are the
 //! recording spec's formulas evaluated exactly.
 
+pub mod bench;
+pub mod drivers;
+pub mod icm42688;
 pub mod ideal;
 pub mod imu;
 pub mod recording;
 pub mod rng;
+pub mod sim;
+pub mod world;

@@ -1,0 +1,554 @@
+//! `simulate`: a whole run (table + IMU + encoder) written as a recording.
+//!
+//! Physics runs at 1 kHz: the table follows the scheme's reference, either
+//! exactly (`ideal`: a perfect table) or through its motor and servo. IMU
+//! samples are taken at `imu_rate_hz` from the truth at `t - latency +
+//! jitter`, encoder reads at `encoder_rate_hz` from the angle at
+//! `t - encoder latency`, quantised to whole counts (not in `ideal`).
+
+use crate::imu::{ImuModel, ImuSpec};
+use crate::recording::{ImuRow, Meta, Recording, TableRow};
+use crate::rng::Rng;
+use crate::world::{
+    Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Servo, Site, Table,
+};
+use core_nav::attitude::Euler;
+use core_nav::scheme::{Limits, Profile, Scheme};
+use core_nav::table::Axis;
+use nalgebra::Vector3;
+use std::collections::VecDeque;
+
+/// Everything a run is made of.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// A perfect table and encoder (exact profile, no quantisation or
+    /// latency); the IMU is whatever `imu` says (`ImuSpec::ideal()` for
+    /// `--ideal`).
+    pub ideal: bool,
+    /// The sensor.
+    pub imu: ImuSpec,
+    /// Rotation scheme after the static phase.
+    pub scheme: Scheme,
+    /// Table limits.
+    pub limits: Limits,
+    /// The table stays still for this long first (calibration's static phase), s.
+    pub static_s: f64,
+    /// Run length, s.
+    pub duration_s: f64,
+    /// Site.
+    pub site: Site,
+    /// Base attitude as given: roll, pitch, heading, deg.
+    pub base_deg: [f64; 3],
+    /// Table geometry.
+    pub geometry: Geometry,
+    /// Encoder.
+    pub encoder: EncoderSpec,
+    /// Motor and mechanics.
+    pub motor: MotorParams,
+    /// Base bump.
+    pub bump: Option<Bump>,
+    /// IMU rate, Hz.
+    pub imu_rate_hz: f64,
+    /// Encoder read rate, Hz.
+    pub encoder_rate_hz: f64,
+    /// Seed for every random draw.
+    pub seed: u64,
+    /// Deterministic gyro g-sensitivity: VALUE x a fixed sign pattern on all
+    /// nine entries, rad/s per m/s^2 (replaces the profile's random draw).
+    pub g_sens_override: Option<f64>,
+    /// Deterministic gyro bias temperature coefficient, rad/s per degC, all
+    /// axes (replaces the profile's random draw).
+    pub temp_bias_override: Option<f64>,
+}
+
+impl SimConfig {
+    /// A run of `duration_s` with `imu` about `axis`, table still.
+    pub fn new(imu: ImuSpec, axis: Axis, duration_s: f64) -> Self {
+        Self {
+            ideal: false,
+            imu,
+            scheme: Scheme::Still,
+            limits: Limits::default(),
+            static_s: 0.0,
+            duration_s,
+            site: Site::new(30.53, 20.0),
+            base_deg: [0.0; 3],
+            geometry: Geometry::perfect(axis),
+            encoder: EncoderSpec::default(),
+            motor: MotorParams::default(),
+            bump: None,
+            imu_rate_hz: 100.0,
+            encoder_rate_hz: 50.0,
+            seed: 1,
+            g_sens_override: None,
+            temp_bias_override: None,
+        }
+    }
+
+    /// Sets one named effect (see [`EFFECTS`]) to `value`.
+    ///
+    /// # Errors
+    /// An unknown name, with the list of known ones.
+    pub fn set_effect(&mut self, name: &str, value: f64) -> Result<(), String> {
+        let e = EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| {
+            let names: Vec<&str> = EFFECTS.iter().map(|e| e.name).collect();
+            format!("unknown effect {name:?}; known: {}", names.join(", "))
+        })?;
+        if !value.is_finite() {
+            return Err(format!("effect {name}: value {value} is not finite"));
+        }
+        (e.apply)(self, value);
+        Ok(())
+    }
+}
+
+/// A named knob of the world: every effect id of
+/// `shared/spec/diagnose-v1.md` and the other error-model terms.
+pub struct Effect {
+    /// Name for `--effect NAME=VALUE`.
+    pub name: &'static str,
+    /// Unit of VALUE.
+    pub unit: &'static str,
+    /// What it does.
+    pub help: &'static str,
+    apply: fn(&mut SimConfig, f64),
+}
+
+/// Perpendicular to the table axis: where the lever arm points and which
+/// way the axis tilts.
+fn radial(axis: Axis) -> Vector3<f64> {
+    match axis {
+        Axis::X => Vector3::y(),
+        Axis::Y => Vector3::z(),
+        Axis::Z => Vector3::x(),
+    }
+}
+
+/// Fixed sign pattern for a full g-sensitivity matrix (documented, not random).
+const G_SENS_PATTERN: [[f64; 3]; 3] = [[1.0, -1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, 1.0]];
+
+/// The knobs. Diagnose ids first.
+pub const EFFECTS: &[Effect] = &[
+    Effect {
+        name: "earth_rate",
+        unit: "x Omega_e",
+        help: "scale of the earth rate the sensor feels (1 = real earth, 0 = none)",
+        apply: |c, v| c.site.earth_rate_scale = v,
+    },
+    Effect {
+        name: "gyro_g_sensitivity",
+        unit: "rad/s per m/s^2",
+        help: "gyro bias G f, G = VALUE x fixed sign pattern on all nine entries",
+        apply: |c, v| {
+            c.imu.g_sensitivity = 0.0;
+            c.g_sens_override = Some(v)
+        },
+    },
+    Effect {
+        name: "gyro_scale_nonlinearity",
+        unit: "1/(rad/s)",
+        help: "gyro K2 (rate-squared term), all axes",
+        apply: |c, v| c.imu.gyro.k2 = v,
+    },
+    Effect {
+        name: "gyro_scale_asymmetry",
+        unit: "1",
+        help: "gyro scale for positive minus negative rates, all axes",
+        apply: |c, v| c.imu.gyro.asymmetry = v,
+    },
+    Effect {
+        name: "lever_arm",
+        unit: "m",
+        help: "IMU origin this far from the table axis (radially)",
+        apply: |c, v| c.geometry.lever_arm_s = radial(c.geometry.axis) * v,
+    },
+    Effect {
+        name: "axis_tilt",
+        unit: "rad",
+        help: "table axis tilted by this angle (about a perpendicular axis of b)",
+        apply: |c, v| {
+            let k = c.geometry.axis.unit::<f64>();
+            c.geometry.axis_tilt = k.cross(&radial(c.geometry.axis)) * v
+        },
+    },
+    Effect {
+        name: "time_offset",
+        unit: "s",
+        help: "IMU samples this late relative to their stamps (and the encoder)",
+        apply: |c, v| c.imu.latency_s = v,
+    },
+    Effect {
+        name: "temperature_bias",
+        unit: "rad/s per degC",
+        help: "gyro bias temperature coefficient (all axes), with the warm-up curve",
+        apply: |c, v| {
+            c.imu.gyro.temp_bias = 0.0;
+            c.temp_bias_override = Some(v)
+        },
+    },
+    Effect {
+        name: "bias_instability",
+        unit: "rad/s",
+        help: "gyro Gauss-Markov bias sigma (tau 100 s unless bias_tau_s is set)",
+        apply: |c, v| {
+            c.imu.gyro.bias_instability = v;
+            if c.imu.gyro.bi_tau_s <= 0.0 {
+                c.imu.gyro.bi_tau_s = 100.0
+            }
+        },
+    },
+    Effect {
+        name: "encoder_error",
+        unit: "rad",
+        help: "once-per-revolution encoder error (eccentricity) amplitude",
+        apply: |c, v| c.encoder.eccentricity_rad = v,
+    },
+    Effect {
+        name: "accel_scale_nonlinearity",
+        unit: "1/(m/s^2)",
+        help: "accelerometer K2, all axes",
+        apply: |c, v| c.imu.accel.k2 = v,
+    },
+    // Other terms of the error model.
+    Effect {
+        name: "gyro_bias",
+        unit: "rad/s",
+        help: "turn-on gyro bias 1 sigma",
+        apply: |c, v| c.imu.gyro.bias = v,
+    },
+    Effect {
+        name: "accel_bias",
+        unit: "m/s^2",
+        help: "turn-on accelerometer bias 1 sigma",
+        apply: |c, v| c.imu.accel.bias = v,
+    },
+    Effect {
+        name: "gyro_scale",
+        unit: "1",
+        help: "gyro scale-factor error 1 sigma",
+        apply: |c, v| c.imu.gyro.scale = v,
+    },
+    Effect {
+        name: "accel_scale",
+        unit: "1",
+        help: "accelerometer scale-factor error 1 sigma",
+        apply: |c, v| c.imu.accel.scale = v,
+    },
+    Effect {
+        name: "gyro_misalignment",
+        unit: "rad",
+        help: "gyro misalignment, each off-diagonal 1 sigma",
+        apply: |c, v| c.imu.gyro.misalignment = v,
+    },
+    Effect {
+        name: "accel_misalignment",
+        unit: "rad",
+        help: "accelerometer misalignment, each off-diagonal 1 sigma",
+        apply: |c, v| c.imu.accel.misalignment = v,
+    },
+    Effect {
+        name: "gyro_k3",
+        unit: "1/(rad/s)^2",
+        help: "gyro third-order scale nonlinearity",
+        apply: |c, v| c.imu.gyro.k3 = v,
+    },
+    Effect {
+        name: "accel_scale_asymmetry",
+        unit: "1",
+        help: "accelerometer scale asymmetry",
+        apply: |c, v| c.imu.accel.asymmetry = v,
+    },
+    Effect {
+        name: "gyro_arw",
+        unit: "rad/sqrt(s)",
+        help: "gyro white noise (angle random walk)",
+        apply: |c, v| c.imu.gyro.white = v,
+    },
+    Effect {
+        name: "accel_vrw",
+        unit: "m/s/sqrt(s)",
+        help: "accelerometer white noise (velocity random walk)",
+        apply: |c, v| c.imu.accel.white = v,
+    },
+    Effect {
+        name: "bias_tau_s",
+        unit: "s",
+        help: "gyro Gauss-Markov correlation time",
+        apply: |c, v| c.imu.gyro.bi_tau_s = v,
+    },
+    Effect {
+        name: "accel_bias_instability",
+        unit: "m/s^2",
+        help: "accelerometer Gauss-Markov bias sigma",
+        apply: |c, v| c.imu.accel.bias_instability = v,
+    },
+    Effect {
+        name: "gyro_rrw",
+        unit: "rad/s/sqrt(s)",
+        help: "gyro rate random walk",
+        apply: |c, v| c.imu.gyro.rrw = v,
+    },
+    Effect {
+        name: "accel_temperature_bias",
+        unit: "m/s^2 per degC",
+        help: "accelerometer bias temperature coefficient 1 sigma",
+        apply: |c, v| c.imu.accel.temp_bias = v,
+    },
+    Effect {
+        name: "gyro_temperature_scale",
+        unit: "1/degC",
+        help: "gyro scale temperature coefficient 1 sigma",
+        apply: |c, v| c.imu.gyro.temp_scale = v,
+    },
+    Effect {
+        name: "warmup_c",
+        unit: "degC",
+        help: "self-heating rise after turn-on",
+        apply: |c, v| c.imu.temp.warmup_c = v,
+    },
+    Effect {
+        name: "warmup_tau_s",
+        unit: "s",
+        help: "warm-up time constant",
+        apply: |c, v| c.imu.temp.warmup_tau_s = v,
+    },
+    Effect {
+        name: "gyro_lsb",
+        unit: "rad/s",
+        help: "gyro output quantisation",
+        apply: |c, v| c.imu.gyro.lsb = v,
+    },
+    Effect {
+        name: "accel_lsb",
+        unit: "m/s^2",
+        help: "accelerometer output quantisation",
+        apply: |c, v| c.imu.accel.lsb = v,
+    },
+    Effect {
+        name: "gyro_full_scale",
+        unit: "rad/s",
+        help: "gyro saturation",
+        apply: |c, v| c.imu.gyro.full_scale = v,
+    },
+    Effect {
+        name: "accel_full_scale",
+        unit: "m/s^2",
+        help: "accelerometer saturation",
+        apply: |c, v| c.imu.accel.full_scale = v,
+    },
+    Effect {
+        name: "jitter",
+        unit: "s",
+        help: "IMU sample-time jitter 1 sigma (clamped to 4 ms)",
+        apply: |c, v| c.imu.jitter_s = v,
+    },
+    Effect {
+        name: "wobble",
+        unit: "rad",
+        help: "sensor tilted on the platform: its axes cone once per revolution",
+        apply: |c, v| c.geometry.wobble = radial(c.geometry.axis) * v,
+    },
+    Effect {
+        name: "encoder_latency",
+        unit: "s",
+        help: "encoder reads this late",
+        apply: |c, v| c.encoder.latency_s = v,
+    },
+    Effect {
+        name: "encoder_counts",
+        unit: "counts/rev",
+        help: "encoder resolution",
+        apply: |c, v| c.encoder.counts_per_rev = v.round().clamp(4.0, 1e9) as u32,
+    },
+];
+
+/// Kinematics history at the physics rate, to evaluate the truth at
+/// slightly earlier times (latency, jitter).
+struct History {
+    dt: f64,
+    first_tick: u64,
+    buf: VecDeque<Kinematics>,
+    cap: usize,
+}
+
+impl History {
+    fn new(dt: f64, cap: usize) -> Self {
+        Self {
+            dt,
+            first_tick: 0,
+            buf: VecDeque::with_capacity(cap),
+            cap,
+        }
+    }
+
+    fn push(&mut self, k: Kinematics) {
+        if self.buf.len() == self.cap {
+            self.buf.pop_front();
+            self.first_tick += 1;
+        }
+        self.buf.push_back(k);
+    }
+
+    /// Kinematics at `t` by cubic Hermite interpolation of the angle (with
+    /// the rates as slopes), linear in rate and acceleration.
+    fn at(&self, t: f64) -> Kinematics {
+        let x = (t / self.dt - self.first_tick as f64).max(0.0);
+        let i = (x.floor() as usize).min(self.buf.len().saturating_sub(2));
+        let (Some(a), Some(b)) = (self.buf.get(i), self.buf.get(i + 1)) else {
+            return self.buf.back().copied().unwrap_or_default();
+        };
+        let u = (x - i as f64).clamp(0.0, 1.0);
+        let h = self.dt;
+        let (u2, u3) = (u * u, u * u * u);
+        let theta = (2.0 * u3 - 3.0 * u2 + 1.0) * a.theta
+            + (u3 - 2.0 * u2 + u) * h * a.rate
+            + (-2.0 * u3 + 3.0 * u2) * b.theta
+            + (u3 - u2) * h * b.rate;
+        Kinematics {
+            theta,
+            rate: a.rate + u * (b.rate - a.rate),
+            accel: a.accel + u * (b.accel - a.accel),
+        }
+    }
+}
+
+/// The largest jitter used, s (samples are taken this long after their
+/// stamp so the truth is known on both sides).
+const MAX_JITTER_S: f64 = 0.004;
+/// Physics step, s.
+const PHYS_DT: f64 = 1e-3;
+
+/// Runs `cfg` and returns the recording. `progress` is told the fraction
+/// done now and then.
+///
+/// # Errors
+/// A scheme out of range, non-positive rates or duration, a latency above
+/// 1 s.
+pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Recording, String> {
+    if !(cfg.duration_s > 0.0 && cfg.imu_rate_hz > 0.0 && cfg.encoder_rate_hz > 0.0) {
+        return Err("duration and rates must be positive".into());
+    }
+    if !(0.0..=1.0).contains(&cfg.imu.latency_s) || !(0.0..=1.0).contains(&cfg.encoder.latency_s) {
+        return Err("latencies must be within [0, 1] s".into());
+    }
+    let profile = Profile::new(cfg.scheme, cfg.limits).map_err(|e| e.to_string())?;
+    let mut imu = ImuModel::new(cfg.imu.clone(), cfg.seed);
+    if let Some(v) = cfg.g_sens_override {
+        imu.g_sens = nalgebra::Matrix3::from_fn(|r, c| v * G_SENS_PATTERN[r][c]);
+    }
+    if let Some(v) = cfg.temp_bias_override {
+        imu.gyro.temp_bias = Vector3::repeat(v);
+    }
+    let [roll_deg, pitch_deg, heading_deg] = cfg.base_deg;
+    let scene = Scene {
+        site: cfg.site,
+        base: Euler::from_deg(roll_deg, pitch_deg, heading_deg),
+        geometry: cfg.geometry,
+        bump: cfg.bump,
+    };
+    let mut jitter = Rng::new(cfg.seed, 3);
+    let mut table = Table::new(cfg.motor.clone());
+    let mut servo = Servo::for_motor(&cfg.motor);
+    let mut hist = History::new(PHYS_DT, 2_000);
+
+    let reference = |t: f64| profile.at(t - cfg.static_s);
+    let n_ticks = (cfg.duration_s / PHYS_DT).round() as u64 + 10;
+    let imu_dt = 1.0 / cfg.imu_rate_hz;
+    let n_imu = (cfg.duration_s * cfg.imu_rate_hz).floor() as u64 + 1;
+    let n_enc = (cfg.duration_s * cfg.encoder_rate_hz).floor() as u64 + 1;
+    let mut rec = Recording {
+        meta: Meta {
+            description: Some(format!(
+                "rins simulate: imu {}, scheme {:?}, static {} s, seed {}{}",
+                cfg.imu.name,
+                cfg.scheme,
+                cfg.static_s,
+                cfg.seed,
+                if cfg.ideal { ", ideal table" } else { "" }
+            )),
+            latitude_deg: cfg.site.lat_deg,
+            height_m: cfg.site.origin.height_m,
+            gravity_mps2: Some(cfg.site.gravity_mps2),
+            heading_deg,
+            pitch_deg,
+            roll_deg,
+            imu_model: Some(cfg.imu.model.to_string()),
+            imu_rate_hz: cfg.imu_rate_hz,
+            imu_sample: crate::recording::SampleKind::Instantaneous,
+            axis: cfg.geometry.axis,
+            encoder_rate_hz: cfg.encoder_rate_hz,
+        },
+        imu: Vec::with_capacity(n_imu as usize),
+        table: Vec::with_capacity(n_enc as usize),
+    };
+    let kin_exact = |t: f64| {
+        let r = reference(t);
+        Kinematics {
+            theta: r.angle,
+            rate: r.rate,
+            accel: r.accel,
+        }
+    };
+    let (mut k_imu, mut k_enc) = (0u64, 0u64);
+    let mut last_report = 0u64;
+    for tick in 0..=n_ticks {
+        let t = tick as f64 * PHYS_DT;
+        if cfg.ideal {
+            hist.push(kin_exact(t));
+        } else {
+            hist.push(table.kin);
+            let v = servo.update(&cfg.motor, &reference(t), &table.kin, PHYS_DT);
+            table.step(PHYS_DT, v, 0.0);
+        }
+        let kin_at = |tt: f64| {
+            if cfg.ideal {
+                kin_exact(tt)
+            } else {
+                hist.at(tt)
+            }
+        };
+        // IMU samples whose truth (with jitter) is now known.
+        while k_imu < n_imu {
+            let t_k = k_imu as f64 / cfg.imu_rate_hz;
+            if t_k + MAX_JITTER_S > t && tick != n_ticks {
+                break;
+            }
+            let j = (jitter.normal() * cfg.imu.jitter_s).clamp(-MAX_JITTER_S, MAX_JITTER_S);
+            let t_true = (t_k - cfg.imu.latency_s + j).max(0.0);
+            let (w, f) = scene.truth(&kin_at(t_true), t_true);
+            let temp = imu.temperature_c(t_true);
+            let (g, a) = imu.measure(&w, &f, temp, imu_dt);
+            rec.imu.push(ImuRow {
+                t_s: t_k,
+                gyro_radps: [g.x, g.y, g.z],
+                accel_mps2: [a.x, a.y, a.z],
+                temp_c: Some(imu.temp_output_c(temp)),
+            });
+            k_imu += 1;
+        }
+        while k_enc < n_enc {
+            let t_k = k_enc as f64 / cfg.encoder_rate_hz;
+            if t_k > t {
+                break;
+            }
+            let angle_rad = if cfg.ideal {
+                cfg.encoder.shown(kin_at(t_k).theta)
+            } else {
+                let th = kin_at((t_k - cfg.encoder.latency_s).max(0.0)).theta;
+                cfg.encoder.count(th) as f64 * core::f64::consts::TAU
+                    / f64::from(cfg.encoder.counts_per_rev)
+            };
+            rec.table.push(TableRow {
+                t_s: t_k,
+                angle_rad,
+            });
+            k_enc += 1;
+        }
+        if tick - last_report >= 10_000 {
+            last_report = tick;
+            progress(tick as f64 / n_ticks as f64);
+        }
+    }
+    progress(1.0);
+    Ok(rec)
+}

@@ -1,0 +1,455 @@
+//! The world the IMU lives in: site, base, turntable geometry, the table's
+//! motor and encoder, and the true kinematics of the sensor.
+//!
+//! Frames as in `core-nav`. The platform frame `p` turns relative to `b`
+//! about the *true* axis `k_t` (the nominal axis `k` tilted by
+//! `axis_tilt`); the sensor is mounted on the platform with a small fixed
+//! rotation `wobble` (`c_s_p = exp(wobble x)`), so its axes cone around the
+//! axis once per revolution; its origin sits `lever_arm_s` (m, in `s`) from
+//! the axis. With the platform angle `theta`:
+//!
+//! ```text
+//! c_p_b = exp(theta [k_t x]),  c_s_b = c_p_b c_s_p,  c_s_n = c_b_n c_s_b
+//! w_is_s = c_n_s w_ie_n + c_p_s k_t theta_dot + c_b_s w_bump_b
+//! f_s    = c_n_s [0, 0, -g] + c_p_s (theta_ddot k_t x r_p + theta_dot^2 k_t x (k_t x r_p)) + c_b_s a_bump_b
+//! ```
+//! with `r_p = c_s_p lever_arm_s`.
+
+use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
+use core_nav::earth::{earth_rate_n, normal_gravity, GeoPoint};
+use core_nav::table::Axis;
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+/// Where the run happens.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Site {
+    /// Latitude as given, deg (kept for the recording's meta).
+    pub lat_deg: f64,
+    /// Position.
+    pub origin: GeoPoint,
+    /// Gravity magnitude, m/s^2.
+    pub gravity_mps2: f64,
+    /// Multiplies the earth rate the sensor feels (1: the real earth).
+    pub earth_rate_scale: f64,
+}
+
+impl Site {
+    /// A site at latitude / height with WGS-84 normal gravity.
+    pub fn new(lat_deg: f64, height_m: f64) -> Self {
+        let origin = GeoPoint::from_deg(lat_deg, 0.0, height_m);
+        let s = origin.lat_rad.sin();
+        Self {
+            lat_deg,
+            origin,
+            gravity_mps2: normal_gravity(s * s, height_m),
+            earth_rate_scale: 1.0,
+        }
+    }
+
+    /// `w_ie_n`, rad/s (scaled).
+    pub fn w_ie_n(&self) -> Vector3<f64> {
+        let l = self.origin.lat_rad;
+        earth_rate_n(l.sin(), l.cos()) * self.earth_rate_scale
+    }
+}
+
+/// A short shake of the base that comes back to where it was: rate and
+/// acceleration are one full sine period each, so attitude and velocity
+/// return (a knock on the bench, a person leaning on it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bump {
+    /// Start, s.
+    pub t_s: f64,
+    /// Duration, s.
+    pub duration_s: f64,
+    /// Peak angular rate of the base, rad/s, in `b`.
+    pub rate_b: Vector3<f64>,
+    /// Peak acceleration of the base, m/s^2, in `b`.
+    pub accel_b: Vector3<f64>,
+}
+
+impl Bump {
+    /// `(w_bump_b, a_bump_b)` at `t` s.
+    pub fn at(&self, t: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let tau = (t - self.t_s) / self.duration_s;
+        if !(0.0..1.0).contains(&tau) {
+            return (Vector3::zeros(), Vector3::zeros());
+        }
+        let s = (core::f64::consts::TAU * tau).sin();
+        (self.rate_b * s, self.accel_b * s)
+    }
+}
+
+/// Table geometry, including what a model may leave out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// Nominal axis.
+    pub axis: Axis,
+    /// Small rotation (rad, in `b`) taking the nominal axis to the true one.
+    pub axis_tilt: Vector3<f64>,
+    /// Fixed small rotation of the sensor on the platform, rad.
+    pub wobble: Vector3<f64>,
+    /// Sensor origin from the axis, m, in `s`.
+    pub lever_arm_s: Vector3<f64>,
+}
+
+impl Geometry {
+    /// A perfect table about `axis`.
+    pub fn perfect(axis: Axis) -> Self {
+        Self {
+            axis,
+            axis_tilt: Vector3::zeros(),
+            wobble: Vector3::zeros(),
+            lever_arm_s: Vector3::zeros(),
+        }
+    }
+
+    /// The true axis `k_t` (same in `b` and `p`).
+    pub fn k_true(&self) -> Vector3<f64> {
+        Rotation3::from_scaled_axis(self.axis_tilt) * self.axis.unit::<f64>()
+    }
+
+    /// `c_s_p`.
+    pub fn c_s_p(&self) -> Matrix3<f64> {
+        *Rotation3::from_scaled_axis(self.wobble).matrix()
+    }
+
+    /// `c_s_b` at platform angle `theta` (rad).
+    pub fn c_s_b(&self, theta: f64) -> Matrix3<f64> {
+        Rotation3::from_scaled_axis(self.k_true() * theta).matrix() * self.c_s_p()
+    }
+}
+
+/// Angle, rate and acceleration of the platform about the true axis.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Kinematics {
+    /// rad (unwrapped).
+    pub theta: f64,
+    /// rad/s.
+    pub rate: f64,
+    /// rad/s^2.
+    pub accel: f64,
+}
+
+/// A static base with its table: computes what an ideal sensor would feel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Scene {
+    /// Site.
+    pub site: Site,
+    /// Base attitude in `n`.
+    pub base: Euler<f64>,
+    /// Table geometry.
+    pub geometry: Geometry,
+    /// Optional bump of the base.
+    pub bump: Option<Bump>,
+}
+
+impl Scene {
+    /// `c_b_n`.
+    pub fn c_b_n(&self) -> Matrix3<f64> {
+        quat_to_dcm(&euler_to_quat(&self.base))
+    }
+
+    /// True `(w_is_s rad/s, f_s m/s^2)` for platform kinematics `k` at `t_s`.
+    pub fn truth(&self, k: &Kinematics, t_s: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let g = &self.geometry;
+        let kt = g.k_true();
+        let c_s_p = g.c_s_p();
+        let c_p_s = c_s_p.transpose();
+        let c_b_s = g.c_s_b(k.theta).transpose();
+        let c_n_s = c_b_s * self.c_b_n().transpose();
+        let (w_bump, a_bump) = self
+            .bump
+            .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
+        let w = c_n_s * self.site.w_ie_n() + c_p_s * (kt * k.rate) + c_b_s * w_bump;
+        let r_p = c_s_p * g.lever_arm_s;
+        let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
+        let f = c_n_s * Vector3::new(0.0, 0.0, -self.site.gravity_mps2)
+            + c_p_s * a_lever_p
+            + c_b_s * a_bump;
+        (w, f)
+    }
+}
+
+/// DC motor driving the table directly through an H-bridge, and the
+/// table's mechanics. The electrical time constant (L/R, ~0.1 ms) is far
+/// below the 1 ms physics step and is neglected: `i = (V - Ke w) / R`.
+///
+/// `J w' = Kt i (1 + ripple(theta)) - b w - Tc sign(w) - cogging(theta) + T_ext`
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotorParams {
+    /// Inertia of table + IMU, kg m^2.
+    pub inertia: f64,
+    /// Torque constant, N m/A (= back-EMF constant, V s/rad).
+    pub kt: f64,
+    /// Winding resistance, ohm.
+    pub resistance: f64,
+    /// Supply voltage, V.
+    pub supply_v: f64,
+    /// Viscous friction, N m s/rad.
+    pub viscous: f64,
+    /// Coulomb friction, N m (also the breakaway torque).
+    pub coulomb: f64,
+    /// Cogging torque harmonics: (cycles per revolution, amplitude N m, phase rad).
+    pub cogging: Vec<(f64, f64, f64)>,
+    /// Torque ripple: (cycles per revolution, relative amplitude).
+    pub ripple: Vec<(f64, f64)>,
+}
+
+impl Default for MotorParams {
+    /// A small direct-drive gimbal torque motor (representative values:
+    /// 0.4 N m stall at 12 V, 240 rad/s no-load), 24-slot cogging.
+    fn default() -> Self {
+        Self {
+            inertia: 2e-3,
+            kt: 0.05,
+            resistance: 1.5,
+            supply_v: 12.0,
+            viscous: 2e-4,
+            coulomb: 5e-3,
+            cogging: vec![(24.0, 2e-3, 0.3)],
+            ripple: vec![(6.0, 0.01)],
+        }
+    }
+}
+
+impl MotorParams {
+    /// Net torque (N m) at angle `theta`, rate `w`, terminal voltage `v`,
+    /// excluding Coulomb friction.
+    pub fn torque(&self, theta: f64, w: f64, v: f64) -> f64 {
+        let i = (v - self.kt * w) / self.resistance;
+        let ripple: f64 = self.ripple.iter().map(|(n, a)| a * (n * theta).sin()).sum();
+        let cog: f64 = self
+            .cogging
+            .iter()
+            .map(|(n, a, ph)| a * (n * theta + ph).sin())
+            .sum();
+        self.kt * i * (1.0 + ripple) - self.viscous * w - cog
+    }
+}
+
+/// The table's mechanical state under a motor, stepped by RK4 with
+/// Coulomb friction and stiction handled at rest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// Motor and mechanics.
+    pub motor: MotorParams,
+    /// Platform state.
+    pub kin: Kinematics,
+    /// A stalled table does not turn (jammed by a cable, a hand).
+    pub stalled: bool,
+}
+
+impl Table {
+    /// A table at rest at angle 0.
+    pub fn new(motor: MotorParams) -> Self {
+        Self {
+            motor,
+            kin: Kinematics::default(),
+            stalled: false,
+        }
+    }
+
+    fn accel(&self, theta: f64, w: f64, v: f64, t_ext: f64) -> f64 {
+        let m = &self.motor;
+        let t = m.torque(theta, w, v) + t_ext;
+        (t - m.coulomb * w.signum()) / m.inertia
+    }
+
+    /// Advances `dt` s with terminal voltage `v` (duty x supply, signed) and
+    /// external torque `t_ext` (N m).
+    pub fn step(&mut self, dt: f64, v: f64, t_ext: f64) {
+        let v = v.clamp(-self.motor.supply_v, self.motor.supply_v);
+        if self.stalled {
+            self.kin.rate = 0.0;
+            self.kin.accel = 0.0;
+            return;
+        }
+        let (th, w) = (self.kin.theta, self.kin.rate);
+        // Stiction: at rest and the drive below breakaway, stay.
+        let drive = self.motor.torque(th, 0.0, v) + t_ext;
+        if w == 0.0 && drive.abs() <= self.motor.coulomb {
+            self.kin.accel = 0.0;
+            return;
+        }
+        let f = |th: f64, w: f64| {
+            // At rest the Coulomb torque opposes the drive, not the (zero) rate.
+            let w_eff = if w == 0.0 {
+                drive.signum() * f64::MIN_POSITIVE
+            } else {
+                w
+            };
+            self.accel(th, w_eff, v, t_ext)
+        };
+        let k1 = (w, f(th, w));
+        let k2 = (
+            w + 0.5 * dt * k1.1,
+            f(th + 0.5 * dt * k1.0, w + 0.5 * dt * k1.1),
+        );
+        let k3 = (
+            w + 0.5 * dt * k2.1,
+            f(th + 0.5 * dt * k2.0, w + 0.5 * dt * k2.1),
+        );
+        let k4 = (w + dt * k3.1, f(th + dt * k3.0, w + dt * k3.1));
+        let th_n = th + dt / 6.0 * (k1.0 + 2.0 * k2.0 + 2.0 * k3.0 + k4.0);
+        let mut w_n = w + dt / 6.0 * (k1.1 + 2.0 * k2.1 + 2.0 * k3.1 + k4.1);
+        // Friction cannot reverse the motion within a step: stop at zero.
+        if w != 0.0 && w_n.signum() != w.signum() {
+            w_n = 0.0;
+        }
+        self.kin = Kinematics {
+            theta: th_n,
+            rate: w_n,
+            accel: (w_n - w) / dt,
+        };
+    }
+}
+
+/// The lab table's own servo (the console of a rate table): rate PI with
+/// feed-forward and an angle loop, on the table's true state (its own
+/// tachometer). The firmware's controller replaces it in closed-loop runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Servo {
+    /// Rate proportional gain, V per rad/s.
+    pub kp: f64,
+    /// Rate integral gain, V per rad.
+    pub ki: f64,
+    /// Angle loop gain, 1/s (rate correction per rad of angle error).
+    pub k_angle: f64,
+    /// Integrator state, V.
+    pub integ: f64,
+}
+
+impl Servo {
+    /// Gains for a ~25 Hz rate loop on `motor` (a lab rate table's console).
+    pub fn for_motor(m: &MotorParams) -> Self {
+        Self::with_bandwidth(m, 25.0)
+    }
+
+    /// Gains for a rate loop of `bandwidth_hz` on `motor`: proportional gain
+    /// puts the crossover there, the integral corner a fifth below, the
+    /// angle loop an eighth.
+    pub fn with_bandwidth(m: &MotorParams, bandwidth_hz: f64) -> Self {
+        let wc = core::f64::consts::TAU * bandwidth_hz;
+        let kp = wc * m.inertia * m.resistance / m.kt;
+        Self {
+            kp,
+            ki: kp * wc / 5.0,
+            k_angle: wc / 8.0,
+            integ: 0.0,
+        }
+    }
+
+    /// Voltage for reference `r` given the table state `k`, after `dt` s.
+    pub fn update(
+        &mut self,
+        m: &MotorParams,
+        r: &core_nav::scheme::Reference,
+        k: &Kinematics,
+        dt: f64,
+    ) -> f64 {
+        let ff = m.kt * r.rate
+            + m.resistance / m.kt
+                * (m.inertia * r.accel + m.viscous * r.rate + m.coulomb * r.rate.signum());
+        let e = r.rate + self.k_angle * (r.angle - k.theta) - k.rate;
+        let u = ff + self.kp * e + self.integ;
+        // Anti-windup: integrate only while the output is not saturated.
+        if u.abs() < m.supply_v {
+            self.integ += self.ki * e * dt;
+        }
+        u.clamp(-m.supply_v, m.supply_v)
+    }
+}
+
+/// Encoder: a quadrature disc read into a wrapping 16-bit hardware counter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EncoderSpec {
+    /// Counts per revolution (lines x 4).
+    pub counts_per_rev: u32,
+    /// Once-per-revolution error (eccentricity), amplitude rad.
+    pub eccentricity_rad: f64,
+    /// Phase of the eccentricity, rad.
+    pub eccentricity_phase: f64,
+    /// Latency of the reading behind its time stamp, s.
+    pub latency_s: f64,
+}
+
+impl Default for EncoderSpec {
+    /// 4096 lines x 4, no error.
+    fn default() -> Self {
+        Self {
+            counts_per_rev: 16_384,
+            eccentricity_rad: 0.0,
+            eccentricity_phase: 0.0,
+            latency_s: 0.0,
+        }
+    }
+}
+
+impl EncoderSpec {
+    /// The angle the disc shows for platform angle `theta` (rad), before
+    /// quantisation.
+    pub fn shown(&self, theta: f64) -> f64 {
+        theta + self.eccentricity_rad * (theta + self.eccentricity_phase).sin()
+    }
+
+    /// Unwrapped count for platform angle `theta` (floor: the quantisation
+    /// error is in `[0, 1)` count).
+    pub fn count(&self, theta: f64) -> i64 {
+        (self.shown(theta) * f64::from(self.counts_per_rev) / core::f64::consts::TAU).floor() as i64
+    }
+
+    /// The 16-bit hardware counter for an unwrapped count.
+    pub fn hw_count(count: i64) -> u16 {
+        count.rem_euclid(65_536) as u16
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn coulomb_friction_holds_and_releases() {
+        let mut t = Table::new(MotorParams {
+            cogging: vec![],
+            ripple: vec![],
+            ..MotorParams::default()
+        });
+        // 0.05 V -> 1.7 mN m < 5 mN m breakaway: stays.
+        for _ in 0..100 {
+            t.step(1e-3, 0.05, 0.0);
+        }
+        assert_eq!(t.kin.theta, 0.0);
+        // 1 V -> 33 mN m: turns, settles at (Kt V/R - Tc) / (b + Kt^2/R).
+        for _ in 0..20_000 {
+            t.step(1e-3, 1.0, 0.0);
+        }
+        let m = &t.motor;
+        let w_ss = (m.kt / m.resistance - m.coulomb) / (m.viscous + m.kt * m.kt / m.resistance);
+        assert!(
+            (t.kin.rate / w_ss - 1.0).abs() < 1e-6,
+            "{} vs {w_ss}",
+            t.kin.rate
+        );
+    }
+
+    #[test]
+    fn lever_arm_gives_centripetal_force() {
+        let mut scene = Scene {
+            site: Site::new(0.0, 0.0),
+            base: Euler::default(),
+            geometry: Geometry::perfect(Axis::Z),
+            bump: None,
+        };
+        scene.geometry.lever_arm_s = Vector3::new(0.1, 0.0, 0.0);
+        let k = Kinematics {
+            theta: 0.0,
+            rate: 2.0,
+            accel: 0.0,
+        };
+        let (_, f) = scene.truth(&k, 0.0);
+        // Centripetal acceleration -w^2 r along x: specific force -0.4 m/s^2.
+        assert!((f.x + 0.4).abs() < 1e-12, "{f}");
+    }
+}

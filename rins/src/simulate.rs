@@ -1,0 +1,154 @@
+//! `rins simulate`.
+
+use crate::{parse_effect, progress_bar, AxisArg, SchemeArg};
+use anyhow::{anyhow, Context, Result};
+use core_nav::scheme::Scheme;
+use core_nav::table::Axis;
+use hal_sim::imu::ImuSpec;
+use hal_sim::sim::{simulate, SimConfig, EFFECTS};
+use hal_sim::world::Site;
+use std::path::PathBuf;
+
+/// Flags of `rins simulate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Error-free, noise-free IMU and a perfect table (exact profile, exact
+    /// encoder angles, no quantisation or latency).
+    #[arg(long)]
+    pub ideal: bool,
+    /// IMU profile: ideal, mtig, nav440, adis16405, icm42688.
+    #[arg(long, default_value = "icm42688")]
+    pub imu: String,
+    /// Rotation scheme after the static phase.
+    #[arg(long, value_enum, default_value = "continuous")]
+    pub scheme: SchemeArg,
+    /// Table axis (the sensor axis it nominally coincides with).
+    #[arg(long, value_enum, default_value = "z")]
+    pub axis: AxisArg,
+    /// Table rate, deg/s (the cruise rate of moves for reciprocating / indexed).
+    #[arg(long, default_value_t = 30.0)]
+    pub rate_dps: f64,
+    /// Run length, s.
+    #[arg(long, default_value_t = 120.0)]
+    pub duration_s: f64,
+    /// Still phase before the scheme starts (calibration's static part), s.
+    #[arg(long, default_value_t = 0.0)]
+    pub static_s: f64,
+    /// Site latitude, deg.
+    #[arg(long, default_value_t = 30.53)]
+    pub lat_deg: f64,
+    /// Site height, m.
+    #[arg(long, default_value_t = 20.0)]
+    pub height_m: f64,
+    /// Base heading, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub heading_deg: f64,
+    /// Base pitch, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub pitch_deg: f64,
+    /// Base roll, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub roll_deg: f64,
+    /// Whole turns each way (reciprocating).
+    #[arg(long, default_value_t = 1)]
+    pub turns: u32,
+    /// Positions (indexed): 2 or 4.
+    #[arg(long, default_value_t = 4)]
+    pub positions: u8,
+    /// Dwell at each position (indexed), s.
+    #[arg(long, default_value_t = 10.0)]
+    pub dwell_s: f64,
+    /// A physical effect, NAME=VALUE (repeatable); `--list-effects` shows them.
+    #[arg(long = "effect", value_name = "NAME=VALUE")]
+    pub effects: Vec<String>,
+    /// Seed: the same seed gives bit-identical output.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// List the effects and exit.
+    #[arg(long)]
+    pub list_effects: bool,
+    /// Output directory (must not hold a recording yet).
+    #[arg(long, required_unless_present = "list_effects")]
+    pub out: Option<PathBuf>,
+}
+
+impl Args {
+    /// The simulation these flags describe.
+    pub fn config(&self) -> Result<SimConfig> {
+        let axis = match self.axis {
+            AxisArg::X => Axis::X,
+            AxisArg::Y => Axis::Y,
+            AxisArg::Z => Axis::Z,
+        };
+        let imu = if self.ideal {
+            ImuSpec::ideal()
+        } else {
+            ImuSpec::by_name(&self.imu).ok_or_else(|| {
+                anyhow!(
+                    "unknown --imu {:?}; profiles: {}",
+                    self.imu,
+                    ImuSpec::NAMES.join(", ")
+                )
+            })?
+        };
+        let rate = self.rate_dps.to_radians();
+        let scheme = match self.scheme {
+            SchemeArg::Still => Scheme::Still,
+            SchemeArg::Continuous => Scheme::Continuous { rate },
+            SchemeArg::Reciprocating => Scheme::Reciprocating {
+                rate: rate.abs(),
+                turns: self.turns,
+            },
+            SchemeArg::Indexed => Scheme::Indexed {
+                rate: rate.abs(),
+                positions: self.positions,
+                dwell_s: self.dwell_s,
+            },
+        };
+        if !(-90.0..=90.0).contains(&self.lat_deg) {
+            return Err(anyhow!("--lat-deg {} is outside [-90, 90]", self.lat_deg));
+        }
+        let mut c = SimConfig::new(imu, axis, self.duration_s);
+        c.ideal = self.ideal;
+        c.scheme = scheme;
+        c.static_s = self.static_s;
+        c.site = Site::new(self.lat_deg, self.height_m);
+        c.base_deg = [self.roll_deg, self.pitch_deg, self.heading_deg];
+        c.seed = self.seed;
+        for e in &self.effects {
+            let (name, v) = parse_effect(e)?;
+            c.set_effect(&name, v).map_err(|m| anyhow!(m))?;
+        }
+        Ok(c)
+    }
+}
+
+/// Runs `rins simulate`.
+pub fn run(a: &Args) -> Result<()> {
+    if a.list_effects {
+        println!("{:<26} {:<18} what", "effect", "unit");
+        for e in EFFECTS {
+            println!("{:<26} {:<18} {}", e.name, e.unit, e.help);
+        }
+        return Ok(());
+    }
+    let out = a
+        .out
+        .as_ref()
+        .ok_or_else(|| anyhow!("--out DIR is required"))?;
+    let cfg = a.config()?;
+    let pb = progress_bar("simulate");
+    let rec =
+        simulate(&cfg, &mut |f| pb.set_position((f * 1000.0) as u64)).map_err(|m| anyhow!(m))?;
+    pb.finish_and_clear();
+    rec.write(out)
+        .with_context(|| format!("writing {}", out.display()))?;
+    println!(
+        "wrote {}: {} IMU samples, {} encoder reads, {:.1} s",
+        out.display(),
+        rec.imu.len(),
+        rec.table.len(),
+        a.duration_s
+    );
+    Ok(())
+}
