@@ -48,8 +48,10 @@ pub const WHO_AM_I_VALUE: u8 = 0x47;
 /// Temperature sensitivity, LSB/degC (room-temperature offset 25 degC).
 pub const TEMP_LSB_PER_C: f64 = 132.48;
 /// Gyro sensitivity at FS_SEL = 0 (+-2000 deg/s), LSB/(deg/s); each FS_SEL
-/// step halves the range and doubles it.
-pub const GYRO_LSB_PER_DPS_FS0: f64 = 16.4;
+/// step halves the range and doubles it. The datasheet's table (16.4, 32.8,
+/// 65.5, 131, 262, 524.3, 1048.6, 2097.2) is `32768 / full scale` rounded:
+/// 524.3 and 2097.2 only fit 16.384.
+pub const GYRO_LSB_PER_DPS_FS0: f64 = 32768.0 / 2000.0;
 /// Accel sensitivity at FS_SEL = 0 (+-16 g), LSB/g.
 pub const ACCEL_LSB_PER_G_FS0: f64 = 2048.0;
 /// Soft-reset time, ns (datasheet: wait 1 ms after SOFT_RESET_CONFIG).
