@@ -188,7 +188,7 @@ impl Profile {
                 positions,
                 dwell_s,
             } => {
-                if !ok_rate(rate) || !(dwell_s >= 0.0 && dwell_s.is_finite()) {
+                if !(ok_rate(rate) && dwell_s >= 0.0 && dwell_s.is_finite()) {
                     return Err(NavError::BadScheme);
                 }
                 let stops: &[f64] = match positions {
@@ -230,7 +230,8 @@ impl Profile {
 
     /// The reference `t_s` seconds after the scheme started (before: still).
     pub fn at(&self, t_s: f64) -> Reference {
-        if !(t_s > 0.0) {
+        // Before the start (or NaN): still.
+        if t_s.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) {
             return Reference::default();
         }
         match self.scheme {

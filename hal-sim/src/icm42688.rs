@@ -90,7 +90,7 @@ fn reset_bank0() -> [u8; 128] {
     r[reg::DRIVE_CONFIG as usize] = 0x05;
     for a in reg::TEMP_DATA1..=0x2A {
         // Data registers: 0x80 high, 0x00 low (-32768: no data).
-        r[a as usize] = if (a - reg::TEMP_DATA1) % 2 == 0 {
+        r[a as usize] = if (a - reg::TEMP_DATA1).is_multiple_of(2) {
             0x80
         } else {
             0x00

@@ -48,6 +48,11 @@ pub struct TriadSpec {
     pub bias_instability: f64,
     /// Gauss-Markov correlation time, s.
     pub bi_tau_s: f64,
+    /// Flicker approximation: the bias instability is a bank of
+    /// [`FLICKER_BANK`] Gauss-Markov processes a decade apart around
+    /// `bi_tau_s`, so the Allan deviation has a flat floor instead of one
+    /// GM bump.
+    pub flicker: bool,
     /// Rate random walk, unit/sqrt(s).
     pub rrw: f64,
     /// Bias temperature coefficient, 1 sigma, unit/degC.
@@ -59,6 +64,15 @@ pub struct TriadSpec {
     /// Full scale, unit (0: none).
     pub full_scale: f64,
 }
+
+/// Gauss-Markov processes in the flicker approximation.
+pub const FLICKER_BANK: usize = 4;
+/// Their correlation times relative to `bi_tau_s` (a decade apart).
+const FLICKER_TAUS: [f64; FLICKER_BANK] = [0.03, 0.3, 3.0, 30.0];
+/// Their common sigma relative to `bias_instability`, chosen so the Allan
+/// floor between the extreme taus equals 0.62 x `bias_instability`, the
+/// peak of a single process (checked in `tests/statistics.rs`).
+const FLICKER_SIGMA: f64 = 0.78;
 
 /// Temperature of the sensor: warm-up from ambient.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -162,6 +176,7 @@ impl ImuSpec {
                 white: 0.05 * DEG,
                 bias_instability: 24.0 * DPH / 0.62, // Allan floor 24 deg/h (GM peak 0.62 sigma)
                 bi_tau_s: 60.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.005 * DEG,
                 temp_scale: 2e-5,
@@ -178,6 +193,7 @@ impl ImuSpec {
                 white: 0.002,
                 bias_instability: 0.02 / 3.0,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.5e-3,
                 temp_scale: 2e-5,
@@ -212,6 +228,7 @@ impl ImuSpec {
                 white: 0.4 * DEG / 60.0,
                 bias_instability: 11.0 * DPH / 0.62,
                 bi_tau_s: 60.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.002 * DEG,
                 temp_scale: 1e-5,
@@ -228,6 +245,7 @@ impl ImuSpec {
                 white: 0.1 / 60.0,
                 bias_instability: 1e-3 * G0 / 3.0,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.1e-3 * G0,
                 temp_scale: 1e-5,
@@ -264,6 +282,7 @@ impl ImuSpec {
                 white: 2.0 * DEG / 60.0,
                 bias_instability: 0.007 * DEG / 0.62,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.01 * DEG,
                 temp_scale: 4e-5,
@@ -280,6 +299,7 @@ impl ImuSpec {
                 white: 0.2 / 60.0,
                 bias_instability: 0.2e-3 * G0 / 0.62,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.3e-3 * G0,
                 temp_scale: 4e-5,
@@ -319,6 +339,7 @@ impl ImuSpec {
                 white: 0.0028 * DEG,
                 bias_instability: 5.0 * DPH / 0.62,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.005 * DEG,
                 temp_scale: 5e-5,
@@ -335,6 +356,7 @@ impl ImuSpec {
                 white: 70e-6 * G0,
                 bias_instability: 0.04e-3 * G0 / 0.62,
                 bi_tau_s: 100.0,
+                flicker: false,
                 rrw: 0.0,
                 temp_bias: 0.15e-3 * G0,
                 temp_scale: 5e-5,
@@ -374,8 +396,10 @@ pub struct TriadModel {
     pub temp_scale: Vector3<f64>,
     /// Noise and drift magnitudes from the spec.
     pub spec: TriadSpec,
-    /// Gauss-Markov bias state, unit.
+    /// Gauss-Markov bias state (sum of the bank in flicker mode), unit.
     pub gm: Vector3<f64>,
+    /// The bank's individual states (flicker mode).
+    pub gm_bank: [Vector3<f64>; FLICKER_BANK],
     /// Random-walk bias state, unit.
     pub rw: Vector3<f64>,
 }
@@ -392,8 +416,17 @@ impl TriadModel {
                 }
             }
         }
-        let gm = rng.normal3() * spec.bias_instability;
+        let mut gm_bank = [Vector3::zeros(); FLICKER_BANK];
+        let gm = if spec.flicker {
+            for b in gm_bank.iter_mut() {
+                *b = rng.normal3() * (spec.bias_instability * FLICKER_SIGMA);
+            }
+            gm_bank.iter().sum()
+        } else {
+            rng.normal3() * spec.bias_instability
+        };
         Self {
+            gm_bank,
             bias: rng.normal3() * spec.bias,
             scale: rng.normal3() * spec.scale,
             misalignment: m,
@@ -411,7 +444,16 @@ impl TriadModel {
     /// Advances the bias processes by `dt` s.
     pub fn advance(&mut self, dt: f64, rng: &mut Rng) {
         let s = &self.spec;
-        if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 {
+        if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 && s.flicker {
+            let sigma = s.bias_instability * FLICKER_SIGMA;
+            let mut sum = Vector3::zeros();
+            for (b, rel) in self.gm_bank.iter_mut().zip(FLICKER_TAUS) {
+                let phi = (-dt / (s.bi_tau_s * rel)).exp();
+                *b = *b * phi + rng.normal3() * (sigma * (1.0 - phi * phi).sqrt());
+                sum += *b;
+            }
+            self.gm = sum;
+        } else if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 {
             let phi = (-dt / s.bi_tau_s).exp();
             let q = s.bias_instability * (1.0 - phi * phi).sqrt();
             self.gm = self.gm * phi + rng.normal3() * q;

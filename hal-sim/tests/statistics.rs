@@ -130,3 +130,34 @@ fn same_seed_bit_identical_other_seed_not() {
     assert_eq!(run(5), run(5));
     assert_ne!(run(5).0, run(6).0);
 }
+
+#[test]
+fn flicker_bank_gives_a_flat_allan_floor() {
+    // The bank's Allan deviation stays within 25 % of 0.62 sigma from
+    // tau_c / 3 to 30 tau_c (a single GM process falls by 3x over that span).
+    let (sigma, tau) = (1e-4, 10.0);
+    let spec = TriadSpec {
+        bias_instability: sigma,
+        bi_tau_s: tau,
+        flicker: true,
+        ..TriadSpec::default()
+    };
+    let mut rng = Rng::new(9, 7);
+    let mut m = TriadModel::realise(&spec, &mut rng);
+    let dt = 0.5;
+    let y: Vec<f64> = (0..400_000)
+        .map(|_| {
+            m.advance(dt, &mut rng);
+            m.gm[0]
+        })
+        .collect();
+    for tau_avg in [tau / 3.0, tau, 3.0 * tau, 10.0 * tau, 30.0 * tau] {
+        let a = oadev(&y, dt, (tau_avg / dt).round() as usize).unwrap().adev;
+        println!("flicker: tau {tau_avg:>6.1} s adev/sigma {:.3}", a / sigma);
+        assert!(
+            (a / (0.62 * sigma) - 1.0).abs() < 0.25,
+            "tau {tau_avg}: {}",
+            a / sigma
+        );
+    }
+}
