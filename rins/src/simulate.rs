@@ -40,6 +40,9 @@ pub struct Args {
     /// Site height, m.
     #[arg(long, default_value_t = 20.0)]
     pub height_m: f64,
+    /// Gravity at the site, m/s^2 (default: WGS-84 normal gravity).
+    #[arg(long)]
+    pub gravity_mps2: Option<f64>,
     /// Base heading, deg.
     #[arg(long, default_value_t = 0.0)]
     pub heading_deg: f64,
@@ -113,6 +116,12 @@ impl Args {
         c.scheme = scheme;
         c.static_s = self.static_s;
         c.site = Site::new(self.lat_deg, self.height_m);
+        if let Some(g) = self.gravity_mps2 {
+            if !(9.0..=10.5).contains(&g) {
+                return Err(anyhow!("--gravity-mps2 {g} is not an earthly gravity"));
+            }
+            c.site.gravity_mps2 = g;
+        }
         c.base_deg = [self.roll_deg, self.pitch_deg, self.heading_deg];
         c.seed = self.seed;
         for e in &self.effects {
