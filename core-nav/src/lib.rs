@@ -48,6 +48,7 @@
 pub mod align;
 pub mod allan;
 pub mod attitude;
+pub mod calib;
 pub mod earth;
 pub mod error;
 pub mod real;

@@ -1,9 +1,12 @@
 //! `rins`: the host command line of the rotary MEMS INS.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
-use std::path::PathBuf;
+use hal_sim::recording::Recording;
+use rins::progress_bar;
+use std::path::{Path, PathBuf};
 
+mod commands;
 mod simulate;
 
 /// rins: rotary MEMS inertial navigation (simulate, calibrate, navigate, ...).
@@ -42,12 +45,28 @@ pub enum SchemeArg {
 enum Command {
     /// Simulate a rotary IMU run and write it as a recording (rins-recording/1).
     Simulate(simulate::Args),
+    /// Calibrate the gyro errors that table rotation excites, from a recording.
+    Calibrate(commands::CalibrateArgs),
+    /// Navigate a recording: trajectory.csv (rins-trajectory/1) and plots.
+    Navigate(commands::NavigateArgs),
+    /// Allan deviation of the six channels, noise fit, JSON and plot.
+    Allan(commands::AllanArgs),
+    /// The paper's experiment in simulation, beside our best and the noise floor.
+    Reproduce(commands::ReproduceArgs),
+    /// The main job: the board's run simulated, calibrated and navigated
+    /// against a conventional twin; a short table and plots.
+    Demo(commands::DemoArgs),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Simulate(a) => simulate::run(&a),
+        Command::Calibrate(a) => commands::calibrate(&a),
+        Command::Navigate(a) => commands::navigate(&a),
+        Command::Allan(a) => commands::allan(&a),
+        Command::Reproduce(a) => commands::reproduce(&a),
+        Command::Demo(a) => commands::demo(&a),
     }
 }
 
@@ -63,19 +82,20 @@ pub fn parse_effect(s: &str) -> Result<(String, f64)> {
     Ok((name.trim().to_string(), v))
 }
 
-/// A progress bar for a job measured in fractions.
-pub fn progress_bar(what: &str) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::new(1000);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
-    pb.set_message(what.to_string());
-    pb
+/// Reads a recording with a progress message.
+pub fn read_recording(p: &Path) -> Result<Recording> {
+    Recording::read(p).map_err(|e| anyhow!("{e}"))
 }
 
-/// Where a path points, for messages.
-pub fn shown(p: &std::path::Path) -> String {
-    PathBuf::from(p).display().to_string()
+/// Writes text to a file, naming it on failure.
+pub fn write_file(p: &Path, text: &str) -> Result<()> {
+    if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+    }
+    std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
+}
+
+/// Output path helper.
+pub fn join(dir: &Path, name: &str) -> PathBuf {
+    dir.join(name)
 }

@@ -1,6 +1,7 @@
 //! `rins simulate`.
 
 use crate::{parse_effect, progress_bar, AxisArg, SchemeArg};
+
 use anyhow::{anyhow, Context, Result};
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;

@@ -1,0 +1,654 @@
+//! Power-up calibration of the gyro errors that table rotation excites
+//! (the paper's Sec. 3, and better).
+//!
+//! The gyro model (paper Eq. 29-32): `w_meas = (I + M) w_true + b + n`.
+//! Rotation about the table axis `k` at rate `r` excites the column `M k`
+//! (installation errors of the other two axes and the scale factor of the
+//! `k` axis) through `M k r`; MEMS gyros add a rate-squared term and a
+//! different scale for the two directions. Every method here is the same
+//! least-squares problem on **phases**: a stretch of data at one table rate
+//! (0 for static), reduced to its mean gyro output over whole table turns
+//! (the horizontal earth rate averages out over a turn). Per gyro axis `i`:
+//!
+//! ```text
+//! mean_i - r k_i = b_i + e_i + m_i r + q_i r^2 + a_i |r|
+//! ```
+//!
+//! `e_i` is the earth rate the phase sees in `s` (static: `c_n_s w_ie_n`;
+//! whole turns: only its component along `k`), known from the latitude and
+//! the base attitude, or ignored (the paper). Which unknowns are solved for
+//! depends on the phases:
+//!
+//! - the paper: static + one rate, earth ignored -> `b, m`;
+//! - earth-aware: the same with `e` subtracted;
+//! - reciprocating: `+r` and `-r`, no static phase -> `b, m`;
+//! - multi-rate: several rates (and directions) -> `b, m, q` (and `a`).
+//!
+//! The predicted 1-sigma errors come from the white noise measured in the
+//! phases themselves (`ARW = sd(w) sqrt(dt)`), propagated through the same
+//! least squares; for the paper's method they reduce to its Eq. 35 / 36:
+//! `sigma_b = ARW / sqrt(T_static)`, `sigma_m = ARW sqrt(1/T_rot +
+//! 1/T_static) / r`.
+//!
+//! Phases are accumulated sample by sample in fixed-size state (no heap), so
+//! the firmware runs the same code; checks refuse a phase that is not static
+//! or a rate that was not reached, with the reason.
+
+use crate::error::NavError;
+use crate::real::Real;
+use crate::table::{Axis, TableAngle};
+use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
+
+/// Most one-second blocks a static phase checks for bumps.
+pub const MAX_BLOCKS: usize = 256;
+/// A turn counts as whole within this angle (encoder quantisation and the
+/// servo's end error of a move), rad: 0.1 deg leaves 3e-4 of a turn's
+/// earth rate unaveraged, below 0.01 deg/h.
+pub const TURN_TOLERANCE_RAD: f64 = 0.1 * core::f64::consts::PI / 180.0;
+
+/// Most phases in one calibration.
+pub const MAX_PHASES: usize = 8;
+
+/// Why a calibration refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CalibError {
+    /// The static phase moved: the table turned (rad).
+    TableMoved {
+        /// Encoder angle change during the phase, rad.
+        angle_rad: f64,
+    },
+    /// The static phase moved: a block mean of the gyro left the phase mean
+    /// by more than the allowed amount (rad/s): a bump, a vehicle moving.
+    NotStatic {
+        /// Largest block deviation, rad/s.
+        deviation_radps: f64,
+        /// Allowed, rad/s.
+        allowed_radps: f64,
+    },
+    /// The accelerometer norm is not g within 2 % (m/s^2).
+    NotLevelOrMoving {
+        /// Mean specific-force norm, m/s^2.
+        norm_mps2: f64,
+    },
+    /// The measured table rate differs from the command by more than 2 %.
+    RateNotReached {
+        /// Measured (encoder), rad/s.
+        measured_radps: f64,
+        /// Commanded, rad/s.
+        commanded_radps: f64,
+    },
+    /// A rotating phase holds less than one whole turn.
+    NotAWholeTurn,
+    /// Too few samples or phases for the unknowns asked for.
+    NotEnoughData,
+    /// The phases' rates do not separate the unknowns (singular).
+    Degenerate,
+    /// A sample was not finite.
+    NonFinite,
+}
+
+impl core::fmt::Display for CalibError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Self::TableMoved { angle_rad } => write!(f, "static phase: the table turned by {:.3} deg", angle_rad.to_degrees()),
+            Self::NotStatic { deviation_radps, allowed_radps } => write!(
+                f,
+                "static phase: gyro moved by {:.4} deg/s in a 1 s block (allowed {:.4} deg/s): bumped or moving",
+                deviation_radps.to_degrees(),
+                allowed_radps.to_degrees()
+            ),
+            Self::NotLevelOrMoving { norm_mps2 } => write!(f, "static phase: specific force {norm_mps2:.4} m/s^2 is not g"),
+            Self::RateNotReached { measured_radps, commanded_radps } => write!(
+                f,
+                "table rate {:.3} deg/s, commanded {:.3} deg/s",
+                measured_radps.to_degrees(),
+                commanded_radps.to_degrees()
+            ),
+            Self::NotAWholeTurn => write!(f, "rotating phase shorter than one whole turn"),
+            Self::NotEnoughData => write!(f, "not enough data for the unknowns"),
+            Self::Degenerate => write!(f, "phase rates do not separate the unknowns"),
+            Self::NonFinite => write!(f, "non-finite sample"),
+        }
+    }
+}
+
+impl From<CalibError> for NavError {
+    fn from(_: CalibError) -> Self {
+        NavError::NotEnoughSamples
+    }
+}
+
+/// Sums of one stretch (f64: sums of 10^4..10^5 samples).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Sums {
+    n: u64,
+    w: Vector3<f64>,
+    w2: Vector3<f64>,
+    f: Vector3<f64>,
+    t_first_us: u64,
+    t_last_us: u64,
+    angle_first: f64,
+    angle_last: f64,
+    /// Sums of cos and sin of the absolute table angle.
+    cos: f64,
+    sin: f64,
+    /// First and last gyro samples (for the endpoint rates).
+    w_first: Vector3<f64>,
+    w_last: Vector3<f64>,
+}
+
+impl Sums {
+    fn add(
+        &mut self,
+        t_us: u64,
+        w: &Vector3<f64>,
+        f: &Vector3<f64>,
+        angle: f64,
+        (sn, cs): (f64, f64),
+    ) {
+        self.cos += cs;
+        self.sin += sn;
+        if self.n == 0 {
+            self.t_first_us = t_us;
+            self.angle_first = angle;
+            self.w_first = *w;
+        }
+        self.w_last = *w;
+        self.n += 1;
+        self.w += w;
+        self.w2 += w.component_mul(w);
+        self.f += f;
+        self.t_last_us = t_us;
+        self.angle_last = angle;
+    }
+}
+
+/// A phase being accumulated: one table rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhaseAccumulator {
+    /// Commanded rate, rad/s (0 = static).
+    pub commanded_radps: f64,
+    /// Table axis.
+    pub axis: Axis,
+    total: Sums,
+    /// Sums up to the last whole-turn crossing (rotating phases).
+    at_turn: Sums,
+    turns_done: i64,
+    start_angle: Option<TableAngle<f64>>,
+    blocks: [Vector3<f64>; MAX_BLOCKS],
+    blocks2: [Vector3<f64>; MAX_BLOCKS],
+    block_n: [u32; MAX_BLOCKS],
+    block_len_us: u64,
+}
+
+impl PhaseAccumulator {
+    /// A phase at `commanded_radps` (0 for static) about `axis`.
+    pub fn new(commanded_radps: f64, axis: Axis) -> Self {
+        Self {
+            commanded_radps,
+            axis,
+            total: Sums::default(),
+            at_turn: Sums::default(),
+            turns_done: 0,
+            start_angle: None,
+            blocks: [Vector3::zeros(); MAX_BLOCKS],
+            blocks2: [Vector3::zeros(); MAX_BLOCKS],
+            block_n: [0; MAX_BLOCKS],
+            block_len_us: 1_000_000,
+        }
+    }
+
+    /// Adds one sample: time (µs), gyro (rad/s) and accel (m/s^2) in `s`,
+    /// and the table angle at that time.
+    ///
+    /// # Errors
+    /// [`CalibError::NonFinite`].
+    pub fn push<T: Real>(
+        &mut self,
+        t_us: u64,
+        w: &Vector3<T>,
+        f: &Vector3<T>,
+        angle: TableAngle<T>,
+    ) -> Result<(), CalibError> {
+        let w = w.map(|x| x.to_f64());
+        let f = f.map(|x| x.to_f64());
+        if !(w.iter().all(|x| x.is_finite()) && f.iter().all(|x| x.is_finite())) {
+            return Err(CalibError::NonFinite);
+        }
+        let angle64 = TableAngle::<f64> {
+            turns: angle.turns,
+            rad: angle.rad.to_f64(),
+        };
+        let start = *self.start_angle.get_or_insert(angle64);
+        let rel = angle64.minus(&start);
+        self.total
+            .add(t_us, &w, &f, rel, crate::real::sin_cos(angle64.rad));
+        // Whole-turn bookkeeping: snapshot the sums each time |rel| passes
+        // another full turn.
+        let turns =
+            libm::floor((libm::fabs(rel) + TURN_TOLERANCE_RAD) / core::f64::consts::TAU) as i64;
+        if turns > self.turns_done {
+            self.turns_done = turns;
+            self.at_turn = self.total;
+        }
+        // 1 s blocks for the static check.
+        let k = ((t_us - self.total.t_first_us) / self.block_len_us) as usize;
+        if let (Some(b), Some(b2), Some(n)) = (
+            self.blocks.get_mut(k),
+            self.blocks2.get_mut(k),
+            self.block_n.get_mut(k),
+        ) {
+            *b += w;
+            *b2 += w.component_mul(&w);
+            *n += 1;
+        }
+        Ok(())
+    }
+
+    /// Samples so far.
+    pub fn samples(&self) -> u64 {
+        self.total.n
+    }
+
+    /// Length so far, s.
+    pub fn duration_s(&self) -> f64 {
+        (self.total.t_last_us.saturating_sub(self.total.t_first_us)) as f64 * 1e-6
+    }
+
+    /// Whole turns so far.
+    pub fn whole_turns(&self) -> i64 {
+        self.turns_done
+    }
+
+    /// The used sums: everything for static, up to the last whole turn for
+    /// rotating phases.
+    fn used(&self) -> &Sums {
+        if self.commanded_radps == 0.0 {
+            &self.total
+        } else {
+            &self.at_turn
+        }
+    }
+
+    /// Mean table rate over the used samples, rad/s, as the gyro mean sees
+    /// it: the n samples' sum of rates times dt is the angle turned plus half
+    /// the endpoint rates times dt (the trapezoid rule read backwards; exact
+    /// for a constant rate and for a move that starts and ends at rest). The
+    /// endpoint rates are the gyro's table-axis readings (their errors enter
+    /// at 1/n).
+    pub fn measured_rate(&self) -> f64 {
+        let s = self.used();
+        if s.n < 2 {
+            return 0.0;
+        }
+        let dt = (s.t_last_us.saturating_sub(s.t_first_us)) as f64 * 1e-6 / (s.n - 1) as f64;
+        let k = self.axis.unit::<f64>();
+        let ends = 0.5 * (k.dot(&s.w_first) + k.dot(&s.w_last)) * dt;
+        (s.angle_last - s.angle_first + ends) / (s.n as f64 * dt)
+    }
+
+    /// White-noise density of each gyro axis from the sample spread,
+    /// rad/sqrt(s), for a sample period `dt_s` (static phases; rotating
+    /// phases carry the modulated earth rate in x/y, tiny next to MEMS noise).
+    pub fn arw(&self, dt_s: f64) -> Vector3<f64> {
+        let s = self.used();
+        let n = s.n.max(2) as f64;
+        let mean = s.w / n;
+        let var = (s.w2 / n - mean.component_mul(&mean)).map(|v| v.max(0.0)) * (n / (n - 1.0));
+        var.map(|v| libm::sqrt(v * dt_s))
+    }
+
+    /// Checks the phase (see [`Checks`]) and reduces it.
+    ///
+    /// # Errors
+    /// The first failed check.
+    pub fn finish(&self, checks: &Checks, dt_s: f64) -> Result<Phase, CalibError> {
+        let s = self.used();
+        if s.n < 10 {
+            return Err(if self.commanded_radps != 0.0 && self.total.n >= 10 {
+                CalibError::NotAWholeTurn
+            } else {
+                CalibError::NotEnoughData
+            });
+        }
+        let n = s.n as f64;
+        let mean_w = s.w / n;
+        let mean_f = s.f / n;
+        let rate = self.measured_rate();
+        if self.commanded_radps == 0.0 {
+            let moved = libm::fabs(self.total.angle_last - self.total.angle_first);
+            if moved > checks.max_static_angle_rad {
+                return Err(CalibError::TableMoved { angle_rad: moved });
+            }
+            let g = checks.gravity_mps2;
+            let norm = mean_f.norm();
+            if g > 0.0 && libm::fabs(norm / g - 1.0) > 0.02 {
+                return Err(CalibError::NotLevelOrMoving { norm_mps2: norm });
+            }
+            // Block means against the phase mean: white noise gives
+            // ARW / sqrt(1 s) per block; allow 6 sigma plus the drift
+            // allowance (bias instability over a minute).
+            let arw = self.arw(dt_s);
+            let mut worst: f64 = 0.0;
+            let mut allowed_at_worst = 0.0;
+            for (b, cnt) in self.blocks.iter().zip(self.block_n.iter()) {
+                if *cnt < 10 {
+                    continue;
+                }
+                let bm = b / f64::from(*cnt);
+                let sigma = arw / libm::sqrt(f64::from(*cnt) * dt_s);
+                for i in 0..3 {
+                    let (d, sg) = match (bm.get(i), mean_w.get(i), sigma.get(i)) {
+                        (Some(a), Some(m), Some(s)) => (libm::fabs(a - m), *s),
+                        _ => continue,
+                    };
+                    let allowed = 6.0 * sg + checks.static_drift_radps;
+                    if d - allowed > worst - allowed_at_worst {
+                        worst = d;
+                        allowed_at_worst = allowed;
+                    }
+                }
+            }
+            if worst > allowed_at_worst && allowed_at_worst > 0.0 {
+                return Err(CalibError::NotStatic {
+                    deviation_radps: worst,
+                    allowed_radps: allowed_at_worst,
+                });
+            }
+            // A shake that comes back averages out of a block mean but not
+            // out of its spread: each block's rms about its mean against
+            // the median block's (robust: only a few blocks are bumped).
+            // 2x the median rms is far outside the chi-square spread of a
+            // 100-sample block (+-10 %).
+            let mut rms = [0.0f64; MAX_BLOCKS];
+            let mut used = 0;
+            for ((b, b2), cnt) in self
+                .blocks
+                .iter()
+                .zip(self.blocks2.iter())
+                .zip(self.block_n.iter())
+            {
+                if *cnt < 10 {
+                    continue;
+                }
+                let c = f64::from(*cnt);
+                let m = b / c;
+                let v = (b2 / c - m.component_mul(&m)).map(|x| x.max(0.0));
+                if let Some(slot) = rms.get_mut(used) {
+                    *slot = libm::sqrt(v.max());
+                    used += 1;
+                }
+            }
+            if let Some(sorted) = rms.get_mut(..used) {
+                sorted.sort_unstable_by(|a, b| a.total_cmp(b));
+                let median = sorted.get(used / 2).copied().unwrap_or(0.0);
+                let top = sorted.last().copied().unwrap_or(0.0);
+                if used >= 5 && top > 2.0 * median + checks.static_drift_radps {
+                    return Err(CalibError::NotStatic {
+                        deviation_radps: top,
+                        allowed_radps: 2.0 * median + checks.static_drift_radps,
+                    });
+                }
+            }
+        } else {
+            if self.turns_done < 1 {
+                return Err(CalibError::NotAWholeTurn);
+            }
+            if libm::fabs(rate / self.commanded_radps - 1.0) > checks.max_rate_error {
+                return Err(CalibError::RateNotReached {
+                    measured_radps: rate,
+                    commanded_radps: self.commanded_radps,
+                });
+            }
+        }
+        Ok(Phase {
+            rate_radps: if self.commanded_radps == 0.0 {
+                0.0
+            } else {
+                rate
+            },
+            mean_w,
+            arw: self.arw(dt_s),
+            duration_s: (s.t_last_us.saturating_sub(s.t_first_us)) as f64 * 1e-6 + dt_s,
+            mean_cos: s.cos / n,
+            mean_sin: s.sin / n,
+        })
+    }
+}
+
+/// Thresholds of the data checks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Checks {
+    /// Largest table motion accepted in a static phase, rad.
+    pub max_static_angle_rad: f64,
+    /// Allowance for genuine bias drift in the static block test, rad/s.
+    pub static_drift_radps: f64,
+    /// Largest relative error of the table rate, dimensionless.
+    pub max_rate_error: f64,
+    /// Gravity at the site, m/s^2 (0 disables the norm check).
+    pub gravity_mps2: f64,
+}
+
+impl Default for Checks {
+    fn default() -> Self {
+        Self {
+            max_static_angle_rad: 0.05f64.to_radians(),
+            static_drift_radps: 0.02f64.to_radians(),
+            max_rate_error: 0.02,
+            gravity_mps2: 0.0,
+        }
+    }
+}
+
+/// A reduced phase.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Phase {
+    /// Measured table rate, rad/s (0 static).
+    pub rate_radps: f64,
+    /// Mean gyro over the used part, rad/s, in `s`.
+    pub mean_w: Vector3<f64>,
+    /// Measured white-noise density per axis, rad/sqrt(s).
+    pub arw: Vector3<f64>,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Mean of cos(theta) over the phase (theta the absolute table angle).
+    pub mean_cos: f64,
+    /// Mean of sin(theta) over the phase.
+    pub mean_sin: f64,
+}
+
+/// What the calibration knows about the earth rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EarthModel {
+    /// Ignore it (the paper: "the earth rotation rate can be ignored").
+    Ignore,
+    /// Known: `w_ie_n` (rad/s), the base attitude `c_b_n`, the table axis.
+    Known {
+        /// Earth rate in `n`, rad/s.
+        w_ie_n: Vector3<f64>,
+        /// Base attitude.
+        c_b_n: Matrix3<f64>,
+        /// Table axis.
+        axis: Axis,
+    },
+}
+
+impl EarthModel {
+    /// The earth rate a phase sees in `s` on average: with `c_b_s(theta) v
+    /// = v cos(theta) - (k x v) sin(theta) + k (k.v)(1 - cos(theta))`
+    /// (Rodrigues), its time average is `k (k.v) + mean(cos) (v - k (k.v)) -
+    /// mean(sin) (k x v)`. This covers a static phase, whole turns at a
+    /// uniform rate (means 0: only the `k` component stays) and moves with
+    /// ramps, which spend unequal time at different angles.
+    pub fn seen(&self, p: &Phase) -> Vector3<f64> {
+        match *self {
+            EarthModel::Ignore => Vector3::zeros(),
+            EarthModel::Known {
+                w_ie_n,
+                c_b_n,
+                axis,
+            } => {
+                let k = axis.unit::<f64>();
+                let v = c_b_n.transpose() * w_ie_n;
+                let par = k * k.dot(&v);
+                par + (v - par) * p.mean_cos - k.cross(&v) * p.mean_sin
+            }
+        }
+    }
+}
+
+/// Which unknowns to solve for, per gyro axis.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Unknowns {
+    /// Rate-squared term `q`.
+    pub quadratic: bool,
+    /// Direction asymmetry `a` (needs both directions).
+    pub asymmetry: bool,
+}
+
+/// The result: corrections for the gyro and their predicted errors.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct GyroCalibration {
+    /// Bias, rad/s.
+    pub bias: Vector3<f64>,
+    /// Column `M k` (installation errors and the `k` axis scale error).
+    pub m_k: Vector3<f64>,
+    /// Rate-squared coefficient per axis, 1/(rad/s).
+    pub q: Vector3<f64>,
+    /// Direction asymmetry per axis.
+    pub a: Vector3<f64>,
+    /// Predicted 1-sigma errors of `bias`, `m_k`, `q`, `a`.
+    pub sigma_bias: Vector3<f64>,
+    /// See `sigma_bias`.
+    pub sigma_m_k: Vector3<f64>,
+    /// See `sigma_bias`.
+    pub sigma_q: Vector3<f64>,
+    /// See `sigma_bias`.
+    pub sigma_a: Vector3<f64>,
+    /// Table axis.
+    pub axis: Axis,
+}
+
+impl GyroCalibration {
+    /// Corrects a gyro sample (rad/s, in `s`): removes the bias, the
+    /// nonlinear terms at the measured table-axis rate, and inverts
+    /// `I + M` restricted to column `k` (Sherman-Morrison, exact).
+    pub fn apply<T: Real>(&self, w: &Vector3<T>) -> Vector3<T> {
+        let k = self.axis.unit::<f64>();
+        let w = w.map(|x| x.to_f64());
+        let r = k.dot(&w);
+        let y = w - self.bias - self.q * (r * r) - self.a * libm::fabs(r);
+        // (I + m k^T)^-1 y = y - m (k.y) / (1 + k.m)
+        let x = y - self.m_k * (k.dot(&y) / (1.0 + k.dot(&self.m_k)));
+        x.map(T::lit)
+    }
+}
+
+/// Solves the phases' least squares (see the module docs).
+///
+/// # Errors
+/// [`CalibError::NotEnoughData`] with fewer phases than unknowns,
+/// [`CalibError::Degenerate`] when the rates do not separate them.
+pub fn solve(
+    phases: &[Phase],
+    earth: &EarthModel,
+    unknowns: Unknowns,
+    axis: Axis,
+) -> Result<GyroCalibration, CalibError> {
+    let cols = 2 + usize::from(unknowns.quadratic) + usize::from(unknowns.asymmetry);
+    if phases.len() < cols || phases.len() > MAX_PHASES {
+        return Err(CalibError::NotEnoughData);
+    }
+    let row = |r: f64| {
+        Vector4::new(
+            1.0,
+            r,
+            if unknowns.quadratic { r * r } else { 0.0 },
+            if unknowns.asymmetry {
+                libm::fabs(r)
+            } else {
+                0.0
+            },
+        )
+    };
+    let mut out = GyroCalibration {
+        axis,
+        ..GyroCalibration::default()
+    };
+    for i in 0..3 {
+        // Weighted by the phase length (variance ARW^2 / T).
+        let mut n = Matrix4::<f64>::zeros();
+        let mut rhs = Vector4::<f64>::zeros();
+        let mut arw2 = 0.0;
+        for p in phases {
+            let h = row(p.rate_radps);
+            let w = p.duration_s;
+            // The gyro also sees the true table rate r k.
+            let k_i = axis.unit::<f64>().get(i).copied().unwrap_or(0.0);
+            let y = p.mean_w.get(i).copied().unwrap_or(0.0)
+                - earth.seen(p).get(i).copied().unwrap_or(0.0)
+                - p.rate_radps * k_i;
+            n += h * h.transpose() * w;
+            rhs += h * (w * y);
+            arw2 += p.arw.get(i).map_or(0.0, |a| a * a) * p.duration_s;
+        }
+        let total_t: f64 = phases.iter().map(|p| p.duration_s).sum();
+        let arw2 = arw2 / total_t.max(1e-9);
+        // Unused unknowns: a unit diagonal keeps them at zero.
+        n += Matrix4::from_diagonal(&Vector4::new(
+            0.0,
+            0.0,
+            if unknowns.quadratic { 0.0 } else { 1.0 },
+            if unknowns.asymmetry { 0.0 } else { 1.0 },
+        ));
+        let inv = n.try_inverse().ok_or(CalibError::Degenerate)?;
+        // Conditioning guard: a singular design shows as a huge inverse.
+        if !inv.iter().all(|x| x.is_finite()) || inv.norm() * n.norm() > 1e14 {
+            return Err(CalibError::Degenerate);
+        }
+        let x = inv * rhs;
+        // Covariance: ARW^2 (H^T W H)^-1 with W = T (white noise, variance ARW^2/T).
+        let var = inv.diagonal() * arw2;
+        let sd = var.map(|v| libm::sqrt(v.max(0.0)));
+        let set = |v: &mut Vector3<f64>, val: f64| {
+            if let Some(e) = v.get_mut(i) {
+                *e = val;
+            }
+        };
+        set(&mut out.bias, x.x);
+        set(&mut out.m_k, x.y);
+        set(&mut out.q, if unknowns.quadratic { x.z } else { 0.0 });
+        set(&mut out.a, if unknowns.asymmetry { x.w } else { 0.0 });
+        set(&mut out.sigma_bias, sd.x);
+        set(&mut out.sigma_m_k, sd.y);
+        set(
+            &mut out.sigma_q,
+            if unknowns.quadratic { sd.z } else { 0.0 },
+        );
+        set(
+            &mut out.sigma_a,
+            if unknowns.asymmetry { sd.w } else { 0.0 },
+        );
+    }
+    Ok(out)
+}
+
+/// The averaging time at which an Allan curve is lowest, s: the static
+/// time that balances noise (falling as 1/sqrt(T)) against bias
+/// instability (the paper's Sec. 4 trade-off, made automatic), limited to
+/// `[min_s, max_s]`.
+pub fn best_averaging_time(
+    points: &[crate::allan::AdevPoint],
+    min_s: f64,
+    max_s: f64,
+) -> Option<f64> {
+    points
+        .iter()
+        .filter(|p| p.tau_s >= min_s && p.tau_s <= max_s && p.adev.is_finite())
+        .min_by(|a, b| {
+            a.adev
+                .partial_cmp(&b.adev)
+                .unwrap_or(core::cmp::Ordering::Equal)
+        })
+        .map(|p| p.tau_s)
+}

@@ -1,0 +1,457 @@
+//! Calibration of a recording (`rins calibrate`): find the phases the table
+//! went through (static, or steady at one rate) from the encoder, then run
+//! core-nav's calibration on them.
+
+use anyhow::{anyhow, bail, Result};
+use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
+use core_nav::calib::{
+    solve, CalibError, Checks, EarthModel, GyroCalibration, Phase, PhaseAccumulator, Unknowns,
+};
+use core_nav::earth::{earth_rate_n, normal_gravity};
+use core_nav::table::{EncoderInterpolator, TableAngle};
+use hal_sim::recording::{axis_name, parse_axis, Recording};
+use nalgebra::Vector3;
+use serde_json::{json, Value};
+
+/// A stretch of the run at one table rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Segment {
+    /// Start, s.
+    pub t0_s: f64,
+    /// End, s.
+    pub t1_s: f64,
+    /// Mean encoder rate, rad/s (0: static).
+    pub rate_radps: f64,
+}
+
+/// Finds the static and steady-rate stretches of `rec` from its encoder:
+/// a 1 s centred rate, static below 0.05 deg/s, steady while within 1 %
+/// (or 0.1 deg/s) of the stretch's first rate; ramps are left out and
+/// `trim_s` is cut from each end. Stretches shorter than `min_s` are dropped.
+pub fn segments(rec: &Recording, min_s: f64, trim_s: f64) -> Vec<Segment> {
+    let t = &rec.table;
+    let half = (0.5 * rec.meta.encoder_rate_hz).round().max(1.0) as usize;
+    let rate = |i: usize| -> Option<f64> {
+        let a = t.get(i.checked_sub(half)?)?;
+        let b = t.get(i + half)?;
+        Some((b.angle_rad - a.angle_rad) / (b.t_s - a.t_s))
+    };
+    let mut out = vec![];
+    let mut cur: Option<(f64, f64, f64)> = None; // (t0, t_last, rate0)
+    let static_lim = 0.05f64.to_radians();
+    let close = |r: f64, r0: f64| {
+        if r0.abs() < static_lim {
+            r.abs() < static_lim
+        } else {
+            (r - r0).abs() < (0.01 * r0.abs()).max(0.1f64.to_radians())
+        }
+    };
+    let flush = |c: Option<(f64, f64, f64)>, out: &mut Vec<Segment>| {
+        if let Some((t0, t1, _)) = c {
+            let (a, b) = (t0 + trim_s, t1 - trim_s);
+            if b - a >= min_s {
+                out.push(Segment {
+                    t0_s: a,
+                    t1_s: b,
+                    rate_radps: 0.0,
+                });
+            }
+        }
+    };
+    for (i, row) in t.iter().enumerate() {
+        let Some(r) = rate(i) else { continue };
+        let ti = row.t_s;
+        match cur {
+            Some((t0, _, r0)) if close(r, r0) => cur = Some((t0, ti, r0)),
+            _ => {
+                flush(cur, &mut out);
+                cur = Some((ti, ti, r));
+            }
+        }
+    }
+    flush(cur, &mut out);
+    // Measured mean rates over the trimmed stretches.
+    for s in &mut out {
+        let a = t.iter().find(|r| r.t_s >= s.t0_s);
+        let b = t.iter().rev().find(|r| r.t_s <= s.t1_s);
+        if let (Some(a), Some(b)) = (a, b) {
+            let r = (b.angle_rad - a.angle_rad) / (b.t_s - a.t_s).max(1e-9);
+            s.rate_radps = if r.abs() < static_lim { 0.0 } else { r };
+        }
+    }
+    out
+}
+
+/// The moves of the table within `[t0_s, t1_s]`: maximal stretches turning
+/// one way (ramps included), between stops or reversals, as read from the
+/// encoder. A reciprocating scheme's moves are whole turns.
+pub fn moves(rec: &Recording, t0_s: f64, t1_s: f64) -> Vec<Segment> {
+    let t: Vec<_> = rec
+        .table
+        .iter()
+        .filter(|r| r.t_s >= t0_s && r.t_s <= t1_s)
+        .collect();
+    let mut out = vec![];
+    let mut start: Option<(usize, f64)> = None; // (index, sign)
+    for j in 0..t.len().saturating_sub(1) {
+        let d = t[j + 1].angle_rad - t[j].angle_rad;
+        let sg = if d.abs() < 1e-9 { 0.0 } else { d.signum() };
+        match start {
+            Some((_, s0)) if sg == s0 => {}
+            Some((i0, _)) => {
+                out.push((i0, j));
+                start = if sg != 0.0 { Some((j, sg)) } else { None };
+            }
+            None if sg != 0.0 => start = Some((j, sg)),
+            None => {}
+        }
+    }
+    if let Some((i0, _)) = start {
+        out.push((i0, t.len() - 1));
+    }
+    out.into_iter()
+        .filter_map(|(a, b)| {
+            let (ra, rb) = (t.get(a)?, t.get(b)?);
+            let dt = rb.t_s - ra.t_s;
+            (dt > 1.0).then(|| Segment {
+                t0_s: ra.t_s,
+                t1_s: rb.t_s,
+                rate_radps: (rb.angle_rad - ra.angle_rad) / dt,
+            })
+        })
+        .collect()
+}
+
+/// Calibration methods.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// The paper: first static + first rotating phase, earth rate ignored.
+    Paper,
+    /// The paper's phases with the earth rate taken into account.
+    Earth,
+    /// +rate and -rate phases (no static phase needed), earth-aware.
+    Reciprocating,
+    /// Every phase: bias, scale, rate-squared (and asymmetry), earth-aware.
+    Multirate,
+    /// Pick from the phases found: multirate with 3+ rates, reciprocating
+    /// with both directions, else earth.
+    Auto,
+}
+
+/// Accumulates the IMU samples of `seg` into a phase.
+pub fn accumulate(
+    rec: &Recording,
+    seg: &Segment,
+    commanded_radps: Option<f64>,
+) -> Result<PhaseAccumulator> {
+    let mut acc = PhaseAccumulator::new(
+        if seg.rate_radps == 0.0 {
+            0.0
+        } else {
+            commanded_radps.unwrap_or(seg.rate_radps)
+        },
+        rec.meta.axis,
+    );
+    let mut enc = EncoderInterpolator::<f64>::new(1_000_000);
+    let mut rows = rec.table.iter().peekable();
+    for r in rec
+        .imu
+        .iter()
+        .filter(|r| r.t_s >= seg.t0_s && r.t_s <= seg.t1_s)
+    {
+        let t_us = (r.t_s * 1e6).round() as u64;
+        while let Some(e) = rows.peek() {
+            if enc.latest().is_some_and(|(tl, _)| tl >= t_us) {
+                break;
+            }
+            enc.push(
+                (e.t_s * 1e6).round() as u64,
+                TableAngle::from_rad_f64(e.angle_rad),
+            )
+            .map_err(|e| anyhow!("table.csv: {e}"))?;
+            rows.next();
+        }
+        let a = enc.angle_at(t_us).map_err(|e| anyhow!("{e}"))?;
+        acc.push(
+            t_us,
+            &Vector3::from(r.gyro_radps),
+            &Vector3::from(r.accel_mps2),
+            a,
+        )
+        .map_err(|e| anyhow!("imu.csv at {} s: {e}", r.t_s))?;
+    }
+    Ok(acc)
+}
+
+/// A finished calibration with what it was made from.
+#[derive(Clone, Debug)]
+pub struct Result_ {
+    /// Method used.
+    pub method: Method,
+    /// The corrections.
+    pub gyro: GyroCalibration,
+    /// The phases used.
+    pub phases: Vec<(Segment, Phase)>,
+}
+
+/// The earth model for a recording (latitude, base attitude).
+pub fn earth_of(rec: &Recording) -> EarthModel {
+    let m = &rec.meta;
+    let lat = m.latitude_deg.to_radians();
+    EarthModel::Known {
+        w_ie_n: earth_rate_n(lat.sin(), lat.cos()),
+        c_b_n: quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(
+            m.roll_deg,
+            m.pitch_deg,
+            m.heading_deg,
+        ))),
+        axis: m.axis,
+    }
+}
+
+/// The checks for a recording (gravity from meta or normal gravity).
+pub fn checks_of(rec: &Recording) -> Checks {
+    let m = &rec.meta;
+    let s = m.latitude_deg.to_radians().sin();
+    Checks {
+        gravity_mps2: m
+            .gravity_mps2
+            .unwrap_or_else(|| normal_gravity(s * s, m.height_m)),
+        ..Checks::default()
+    }
+}
+
+/// Calibrates `rec` with `method` from the phases found in `[t0_s, t1_s]`:
+/// static and steady-rate stretches ([`segments`]), or whole moves
+/// ([`moves`]) for the reciprocating method. `commanded_radps`, when given,
+/// is checked against the measured rate of steady phases.
+///
+/// # Errors
+/// No suitable phases, or a refused phase (with its reason).
+pub fn calibrate(
+    rec: &Recording,
+    window: (f64, f64),
+    method: Method,
+    commanded_radps: Option<f64>,
+) -> Result<Result_> {
+    let dt = 1.0 / rec.meta.imu_rate_hz;
+    let mut cut = rec.clone();
+    cut.table.retain(|r| r.t_s >= window.0 && r.t_s <= window.1);
+    let segs = &segments(&cut, 5.0, 0.3)[..];
+    let mv = moves(rec, window.0, window.1);
+    let checks = checks_of(rec);
+    let first_static = segs.iter().find(|s| s.rate_radps == 0.0);
+    let rotating: Vec<&Segment> = segs.iter().filter(|s| s.rate_radps != 0.0).collect();
+    let both_signs =
+        rotating.iter().any(|s| s.rate_radps > 0.0) && rotating.iter().any(|s| s.rate_radps < 0.0);
+    let mut mags: Vec<f64> = rotating.iter().map(|s| s.rate_radps.abs()).collect();
+    mags.sort_by(|a, b| a.total_cmp(b));
+    mags.dedup_by(|a, b| (*a - *b).abs() < 0.02 * b.abs());
+    let method = match method {
+        Method::Auto if mags.len() + usize::from(first_static.is_some()) >= 3 => Method::Multirate,
+        Method::Auto if both_signs => Method::Reciprocating,
+        Method::Auto => Method::Earth,
+        m => m,
+    };
+    let chosen: Vec<Segment> = match method {
+        Method::Paper | Method::Earth => {
+            let (Some(s), Some(r)) = (first_static, rotating.first()) else {
+                bail!(
+                    "{method:?} calibration needs a static and a rotating phase; found {}",
+                    describe(segs)
+                );
+            };
+            vec![*s, **r]
+        }
+        Method::Reciprocating => {
+            // Whole-turn moves each way (a move cut by the window's end is
+            // not one), as many as fit, an equal number each way.
+            let whole = |s: &&Segment| {
+                let turns = (s.rate_radps * (s.t1_s - s.t0_s)).abs() / core::f64::consts::TAU;
+                turns >= 0.99 && (turns - turns.round()).abs() * 360.0 < 0.5
+            };
+            let pos: Vec<&Segment> = mv
+                .iter()
+                .filter(|s| s.rate_radps > 0.0)
+                .filter(whole)
+                .collect();
+            let neg: Vec<&Segment> = mv
+                .iter()
+                .filter(|s| s.rate_radps < 0.0)
+                .filter(whole)
+                .collect();
+            let n = pos
+                .len()
+                .min(neg.len())
+                .min(core_nav::calib::MAX_PHASES / 2);
+            if n == 0 {
+                bail!(
+                    "reciprocating calibration needs moves both ways; found {}",
+                    describe(&mv)
+                );
+            }
+            pos.iter()
+                .take(n)
+                .chain(neg.iter().take(n))
+                .map(|s| **s)
+                .collect()
+        }
+        Method::Multirate | Method::Auto => segs.to_vec(),
+    };
+    let mut phases = vec![];
+    for s in &chosen {
+        // Moves include their ramps: their mean rate is not the command's.
+        let cmd = if method == Method::Reciprocating {
+            None
+        } else {
+            commanded_radps.map(|c| c.abs() * s.rate_radps.signum())
+        };
+        let acc = accumulate(rec, s, cmd)?;
+        let p = acc
+            .finish(&checks, dt)
+            .map_err(|e| anyhow!("phase {:.1}-{:.1} s: {e}", s.t0_s, s.t1_s))?;
+        phases.push((*s, p));
+    }
+    let earth = if method == Method::Paper {
+        EarthModel::Ignore
+    } else {
+        earth_of(rec)
+    };
+    let unknowns = Unknowns {
+        quadratic: method == Method::Multirate
+            && mags.len() + usize::from(first_static.is_some()) >= 3,
+        asymmetry: method == Method::Multirate && both_signs && mags.len() >= 2,
+    };
+    let ps: Vec<Phase> = phases.iter().map(|(_, p)| *p).collect();
+    let gyro =
+        solve(&ps, &earth, unknowns, rec.meta.axis).map_err(|e: CalibError| anyhow!("{e}"))?;
+    Ok(Result_ {
+        method,
+        gyro,
+        phases,
+    })
+}
+
+fn describe(segs: &[Segment]) -> String {
+    if segs.is_empty() {
+        return "no phase of 5 s or more".into();
+    }
+    segs.iter()
+        .map(|s| {
+            format!(
+                "{:.1}-{:.1} s at {:.2} deg/s",
+                s.t0_s,
+                s.t1_s,
+                s.rate_radps.to_degrees()
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn v3(v: &Vector3<f64>) -> Value {
+    json!([v.x, v.y, v.z])
+}
+
+/// The calibration file (`rins-calibration/1`).
+pub fn to_json(r: &Result_) -> Value {
+    let g = &r.gyro;
+    json!({
+        "format": "rins-calibration/1",
+        "method": r.method,
+        "axis": axis_name(g.axis),
+        "gyro": {
+            "bias_radps": v3(&g.bias),
+            "m_k": v3(&g.m_k),
+            "q_per_radps": v3(&g.q),
+            "asymmetry": v3(&g.a),
+        },
+        "predicted_sigma": {
+            "bias_radps": v3(&g.sigma_bias),
+            "m_k": v3(&g.sigma_m_k),
+            "q_per_radps": v3(&g.sigma_q),
+            "asymmetry": v3(&g.sigma_a),
+        },
+        "phases": r.phases.iter().map(|(s, p)| json!({
+            "t_start_s": s.t0_s, "t_end_s": s.t1_s, "rate_dps": p.rate_radps.to_degrees(),
+            "duration_s": p.duration_s, "mean_gyro_radps": v3(&p.mean_w), "arw_rad_per_sqrt_s": v3(&p.arw),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+/// Reads a calibration file written by [`to_json`].
+///
+/// # Errors
+/// Wrong format or missing fields, named.
+pub fn from_json(v: &Value) -> Result<GyroCalibration> {
+    if v.get("format").and_then(Value::as_str) != Some("rins-calibration/1") {
+        bail!("not a rins-calibration/1 file");
+    }
+    let vec = |path: &[&str]| -> Result<Vector3<f64>> {
+        let mut x = v;
+        for p in path {
+            x = x
+                .get(p)
+                .ok_or_else(|| anyhow!("missing {}", path.join(".")))?;
+        }
+        let a = x
+            .as_array()
+            .filter(|a| a.len() == 3)
+            .ok_or_else(|| anyhow!("{} must be 3 numbers", path.join(".")))?;
+        let n: Vec<f64> = a.iter().filter_map(Value::as_f64).collect();
+        if n.len() != 3 || n.iter().any(|x| !x.is_finite()) {
+            bail!("{} must be 3 finite numbers", path.join("."));
+        }
+        Ok(Vector3::new(n[0], n[1], n[2]))
+    };
+    let axis = v
+        .get("axis")
+        .and_then(Value::as_str)
+        .and_then(parse_axis)
+        .ok_or_else(|| anyhow!("missing axis"))?;
+    Ok(GyroCalibration {
+        bias: vec(&["gyro", "bias_radps"])?,
+        m_k: vec(&["gyro", "m_k"])?,
+        q: vec(&["gyro", "q_per_radps"])?,
+        a: vec(&["gyro", "asymmetry"])?,
+        sigma_bias: vec(&["predicted_sigma", "bias_radps"])?,
+        sigma_m_k: vec(&["predicted_sigma", "m_k"])?,
+        sigma_q: vec(&["predicted_sigma", "q_per_radps"])?,
+        sigma_a: vec(&["predicted_sigma", "asymmetry"])?,
+        axis,
+    })
+}
+
+/// Text report.
+pub fn report(r: &Result_) -> String {
+    let g = &r.gyro;
+    let dph = |x: f64| x.to_degrees() * 3600.0;
+    let mut s = format!(
+        "calibration ({:?}, table axis {}):\n",
+        r.method,
+        axis_name(g.axis)
+    );
+    for (seg, p) in &r.phases {
+        s += &format!(
+            "  phase {:7.1}-{:7.1} s  rate {:8.3} deg/s  ARW {:.3} deg/sqrt(h)\n",
+            seg.t0_s,
+            seg.t1_s,
+            p.rate_radps.to_degrees(),
+            p.arw.norm().to_degrees() * 60.0 / 3f64.sqrt()
+        );
+    }
+    s += "  axis        bias [deg/h]        M k [ppm]          q [ppm/(deg/s)]\n";
+    for (i, n) in ["x", "y", "z"].iter().enumerate() {
+        s += &format!(
+            "  {n}    {:9.2} +- {:6.2}   {:9.1} +- {:7.1}   {:9.3} +- {:7.3}\n",
+            dph(g.bias[i]),
+            dph(g.sigma_bias[i]),
+            g.m_k[i] * 1e6,
+            g.sigma_m_k[i] * 1e6,
+            g.q[i] * 1e6 / 1f64.to_radians().recip(),
+            g.sigma_q[i] * 1e6 / 1f64.to_radians().recip(),
+        );
+    }
+    s
+}

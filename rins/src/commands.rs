@@ -1,0 +1,434 @@
+//! The processing commands: calibrate, navigate, allan, reproduce, demo.
+
+use crate::{join, progress_bar, read_recording, write_file};
+use anyhow::{anyhow, bail, Context, Result};
+use core_nav::calib::{Checks, GyroCalibration, PhaseAccumulator};
+use core_nav::scheme::Scheme;
+use core_nav::table::{Axis, TableAngle};
+use hal_sim::imu::ImuSpec;
+use hal_sim::recording::Recording;
+use hal_sim::sim::{simulate, SimConfig};
+use rins::calibrate::{self, Method};
+use rins::nav::{self, NavOptions, StaticErrors, TrajRow};
+use rins::{allan as allan_mod, report, reproduce as repro};
+use std::path::PathBuf;
+
+/// `rins calibrate`.
+#[derive(clap::Args)]
+pub struct CalibrateArgs {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Write the calibration (rins-calibration/1) here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Method.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub method: Method,
+    /// Use data from this time on, s.
+    #[arg(long, default_value_t = 0.0)]
+    pub from_s: f64,
+    /// Use data up to this time, s (default: 120 s, the power-up calibration).
+    #[arg(long, default_value_t = 120.0)]
+    pub to_s: f64,
+    /// The commanded table rate, deg/s: steady phases must reach it within 2 %.
+    #[arg(long)]
+    pub rate_dps: Option<f64>,
+}
+
+/// Runs `rins calibrate`.
+pub fn calibrate(a: &CalibrateArgs) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    let r = calibrate::calibrate(
+        &rec,
+        (a.from_s, a.to_s),
+        a.method,
+        a.rate_dps.map(f64::to_radians),
+    )
+    .with_context(|| format!("calibrating {}", a.rec.display()))?;
+    print!("{}", calibrate::report(&r));
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&calibrate::to_json(&r))?)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `rins navigate`.
+#[derive(clap::Args)]
+pub struct NavigateArgs {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Gyro calibration (rins-calibration/1, from `rins calibrate --json`).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Output directory: trajectory.csv and plots.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Start navigating at this time, s (default: the first sample).
+    #[arg(long, default_value_t = 0.0)]
+    pub start_s: f64,
+    /// Stop at this time, s.
+    #[arg(long)]
+    pub end_s: Option<f64>,
+    /// Navigate in f32, as the MCU does.
+    #[arg(long)]
+    pub f32: bool,
+    /// Hold the height (long static runs: the vertical channel diverges).
+    #[arg(long)]
+    pub hold_height: bool,
+    /// Also write the summary as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn load_calibration(p: &PathBuf) -> Result<GyroCalibration> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", p.display()))?;
+    calibrate::from_json(&v).with_context(|| format!("{}", p.display()))
+}
+
+/// Runs `rins navigate`.
+pub fn navigate(a: &NavigateArgs) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    let calibration = a.calibration.as_ref().map(load_calibration).transpose()?;
+    if let Some(c) = &calibration {
+        if c.axis != rec.meta.axis {
+            bail!(
+                "the calibration is for table axis {:?}, the recording turns about {:?}",
+                c.axis,
+                rec.meta.axis
+            );
+        }
+    }
+    let opt = NavOptions {
+        start_s: a.start_s,
+        end_s: a.end_s,
+        calibration,
+        f32: a.f32,
+        hold_height: a.hold_height,
+    };
+    let pb = progress_bar("navigate");
+    let rows = nav::navigate(&rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    pb.finish_and_clear();
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    write_file(&join(&a.out, "trajectory.csv"), &nav::trajectory_csv(&rows))?;
+    let m = &rec.meta;
+    let base = [m.roll_deg, m.pitch_deg, m.heading_deg];
+    for (name, svg) in report::nav_charts(&[("run", &rows)], base) {
+        write_file(&join(&a.out, &name), &svg)?;
+    }
+    let e = nav::static_errors(&rows, base);
+    let faults = rows.last().map_or(0, |r| r.faults);
+    println!(
+        "{} samples navigated ({} refused) -> {}",
+        rows.len(),
+        faults,
+        a.out.display()
+    );
+    println!("errors against a static base (the recording's attitude, the start point):");
+    println!("  {}", nav::summary(&e));
+    println!("  final horizontal position error {:.2} m", e.h_pos_end_m);
+    if let Some(p) = &a.json {
+        write_file(
+            p,
+            &serde_json::to_string_pretty(
+                &serde_json::json!({"errors": e, "refused_steps": faults}),
+            )?,
+        )?;
+    }
+    Ok(())
+}
+
+/// `rins allan`.
+#[derive(clap::Args)]
+pub struct AllanArgs {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Write the rins-allan/1 JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the plot (SVG) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Runs `rins allan`.
+pub fn allan(a: &AllanArgs) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    if rec.imu.len() < 100 {
+        bail!(
+            "{}: {} IMU samples are too few for an Allan deviation",
+            a.rec.display(),
+            rec.imu.len()
+        );
+    }
+    let pb = progress_bar("allan");
+    let chs = allan_mod::compute(&rec);
+    pb.finish_and_clear();
+    print!("{}", allan_mod::report(&chs));
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string(&allan_mod::to_json(&chs))?)?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.plot {
+        write_file(p, &allan_mod::svg(&chs, &a.rec.display().to_string()))?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `rins reproduce`.
+#[derive(clap::Args)]
+pub struct ReproduceArgs {
+    /// IMU: mtig or nav440.
+    #[arg(long)]
+    pub imu: String,
+    /// Monte Carlo runs per mode and rate.
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// First seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the rins-reproduce/1 JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the plots (SVG) into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+}
+
+/// Runs `rins reproduce`.
+pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
+    if !["mtig", "nav440"].contains(&a.imu.as_str()) {
+        bail!(
+            "--imu must be mtig or nav440 (the paper's sensors), got {:?}",
+            a.imu
+        );
+    }
+    if a.runs == 0 {
+        bail!("--runs must be at least 1");
+    }
+    let spec = ImuSpec::by_name(&a.imu).ok_or_else(|| anyhow!("unknown imu"))?;
+    let pb = progress_bar("reproduce");
+    let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, &mut |f| {
+        pb.set_position((f * 1000.0) as u64)
+    })?;
+    pb.finish_and_clear();
+    println!(
+        "{} ({} runs per cell): RMS over 5 min of navigation",
+        a.imu, a.runs
+    );
+    println!(
+        "{:<15} {:>6} {:>12} {:>10} {:>9} {:>9} {:>10}",
+        "mode", "deg/s", "pos [m]", "vel [m/s]", "roll [d]", "pitch [d]", "hdg [d]"
+    );
+    for r in &rows {
+        println!(
+            "{:<15} {:>6} {:>12.1} {:>10.3} {:>9.4} {:>9.4} {:>10.4}",
+            r.mode,
+            r.rate_dps,
+            r.h_pos_rms_m,
+            r.h_vel_rms_mps,
+            r.roll_rms_deg,
+            r.pitch_rms_deg,
+            r.heading_rms_deg
+        );
+    }
+    println!("\nmean over all rates (paper's figures beside ours):");
+    println!(
+        "{:<15} {:>12} {:>10} {:>14} {:>12}",
+        "mode", "pos [m]", "vel [m/s]", "paper pos [m]", "paper vel"
+    );
+    for mode in [
+        "conventional",
+        "rotary-partial",
+        "rotary-full",
+        "rotary-best",
+        "noise-floor",
+    ] {
+        if let Some((p, v)) = repro::mode_mean(&rows, mode) {
+            let paper = repro::PAPER
+                .iter()
+                .find(|(i, m, _, _)| *i == a.imu && *m == mode);
+            let (pp, pv) = paper.map_or(("-".to_string(), "-".to_string()), |(_, _, p, v)| {
+                (format!("{p:.1}"), format!("{v:.1}"))
+            });
+            let note = if mode == "conventional" {
+                "   (paper: several km after 5 min)"
+            } else {
+                ""
+            };
+            println!("{mode:<15} {p:>12.1} {v:>10.3} {pp:>14} {pv:>12}{note}");
+        }
+    }
+    if let (Some((conv, _)), Some((best, _)), Some((floor, _))) = (
+        repro::mode_mean(&rows, "conventional"),
+        repro::mode_mean(&rows, "rotary-best"),
+        repro::mode_mean(&rows, "noise-floor"),
+    ) {
+        println!(
+            "\nrotary-best is {:.1}x better than conventional and {:.2}x the noise floor",
+            conv / best,
+            best / floor
+        );
+    }
+    if let Some(p) = &a.json {
+        let v = serde_json::json!({"format": "rins-reproduce/1", "imu": a.imu, "rows": rows});
+        write_file(p, &serde_json::to_string_pretty(&v)?)?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(d) = &a.plots {
+        for (name, svg) in report::reproduce_charts(&rows, &a.imu) {
+            write_file(&join(d, &name), &svg)?;
+        }
+        println!("plots in {}", d.display());
+    }
+    Ok(())
+}
+
+/// `rins demo`.
+#[derive(clap::Args)]
+pub struct DemoArgs {
+    /// Output directory (recordings, trajectories, plots).
+    #[arg(long, default_value = "out/demo")]
+    pub out: PathBuf,
+    /// Table rate, deg/s.
+    #[arg(long, default_value_t = 30.0)]
+    pub rate_dps: f64,
+    /// Seed.
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+}
+
+/// Earth-aware bias from the first `t_s` seconds of a static recording.
+fn static_bias(rec: &Recording, t_s: f64) -> Result<GyroCalibration> {
+    let mut acc = PhaseAccumulator::new(0.0, rec.meta.axis);
+    let angle = TableAngle::from_rad_f64(rec.table.first().map_or(0.0, |r| r.angle_rad));
+    for r in rec.imu.iter().take_while(|r| r.t_s < t_s) {
+        acc.push(
+            (r.t_s * 1e6).round() as u64,
+            &r.gyro_radps.into(),
+            &r.accel_mps2.into(),
+            angle,
+        )
+        .map_err(|e| anyhow!("{e}"))?;
+    }
+    let checks = Checks {
+        gravity_mps2: calibrate::checks_of(rec).gravity_mps2,
+        ..Checks::default()
+    };
+    let p = acc
+        .finish(&checks, 1.0 / rec.meta.imu_rate_hz)
+        .map_err(|e| anyhow!("{e}"))?;
+    Ok(GyroCalibration {
+        bias: p.mean_w - calibrate::earth_of(rec).seen(&p),
+        axis: rec.meta.axis,
+        ..GyroCalibration::default()
+    })
+}
+
+/// Runs `rins demo`.
+pub fn demo(a: &DemoArgs) -> Result<()> {
+    let spec = ImuSpec::icm42688();
+    println!(
+        "rins demo: the board's IMU ({}) on a z table at 30.53 N",
+        spec.model
+    );
+    println!(
+        "  power-up: 60 s still + 60 s at {} deg/s (calibration), then 5 min of navigation",
+        a.rate_dps
+    );
+    let pb = progress_bar("demo");
+    let mut cfg = SimConfig::new(spec, Axis::Z, 420.0);
+    cfg.scheme = Scheme::Continuous {
+        rate: a.rate_dps.to_radians(),
+    };
+    cfg.static_s = 60.0;
+    cfg.seed = a.seed;
+    let rot =
+        simulate(&cfg, &mut |f| pb.set_position((f * 300.0) as u64)).map_err(|e| anyhow!(e))?;
+    let mut twin = cfg.clone();
+    twin.scheme = Scheme::Still;
+    let conv = simulate(&twin, &mut |f| pb.set_position(300 + (f * 300.0) as u64))
+        .map_err(|e| anyhow!(e))?;
+    pb.set_position(600);
+    let cal = calibrate::calibrate(
+        &rot,
+        (0.0, 120.0),
+        Method::Earth,
+        Some(a.rate_dps.to_radians()),
+    )?;
+    let conv_cal = static_bias(&conv, 60.0)?;
+    let run = |rec: &Recording, c: GyroCalibration| -> Result<Vec<TrajRow>> {
+        let o = NavOptions {
+            start_s: 120.0,
+            end_s: Some(420.0),
+            calibration: Some(c),
+            f32: true,
+            hold_height: false,
+        };
+        nav::navigate(rec, &o, &mut |_| {})
+    };
+    let rows_rot = run(&rot, cal.gyro)?;
+    let rows_conv = run(&conv, conv_cal)?;
+    pb.finish_and_clear();
+    print!("{}", calibrate::report(&cal));
+    let base = [0.0, 0.0, 0.0];
+    let (er, ec): (StaticErrors, StaticErrors) = (
+        nav::static_errors(&rows_rot, base),
+        nav::static_errors(&rows_conv, base),
+    );
+    println!("\n5 min of navigation (f32, as on the MCU), errors:");
+    println!(
+        "{:<14} {:>12} {:>12} {:>10} {:>10} {:>10}",
+        "", "final pos", "RMS pos", "RMS vel", "RMS tilt", "RMS hdg"
+    );
+    for (name, e) in [("conventional", &ec), ("rotary", &er)] {
+        println!(
+            "{name:<14} {:>10.1} m {:>10.1} m {:>6.3} m/s {:>6.4} deg {:>6.4} deg",
+            e.h_pos_end_m,
+            e.h_pos_rms_m,
+            e.h_vel_rms_mps,
+            e.roll_rms_deg.hypot(e.pitch_rms_deg),
+            e.heading_rms_deg
+        );
+    }
+    println!(
+        "rotation cuts the final position error {:.1}x",
+        ec.h_pos_end_m / er.h_pos_end_m.max(1e-9)
+    );
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    for (name, svg) in
+        report::nav_charts(&[("conventional", &rows_conv), ("rotary", &rows_rot)], base)
+    {
+        write_file(&join(&a.out, &name), &svg)?;
+    }
+    write_file(
+        &join(&a.out, "trajectory_rotary.csv"),
+        &nav::trajectory_csv(&rows_rot),
+    )?;
+    write_file(
+        &join(&a.out, "trajectory_conventional.csv"),
+        &nav::trajectory_csv(&rows_conv),
+    )?;
+    write_file(
+        &join(&a.out, "calibration.json"),
+        &serde_json::to_string_pretty(&calibrate::to_json(&cal))?,
+    )?;
+    for (dir, rec) in [
+        ("recording_rotary", &rot),
+        ("recording_conventional", &conv),
+    ] {
+        let d = join(&a.out, dir);
+        if d.exists() {
+            std::fs::remove_dir_all(&d).with_context(|| format!("replacing {}", d.display()))?;
+        }
+        rec.write(&d).map_err(|e| anyhow!("{e}"))?;
+    }
+    println!(
+        "plots, trajectories, calibration and both recordings in {}",
+        a.out.display()
+    );
+    Ok(())
+}

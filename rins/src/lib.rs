@@ -1,0 +1,22 @@
+//! The host side of rins: processing recordings (calibrate, navigate,
+//! Allan), the paper's experiment, and plots. The `rins` binary wires these
+//! to the command line.
+
+pub mod allan;
+pub mod calibrate;
+pub mod nav;
+pub mod plot;
+pub mod report;
+pub mod reproduce;
+
+/// A progress bar for a job measured in fractions (hidden when not a terminal).
+pub fn progress_bar(what: &str) -> indicatif::ProgressBar {
+    let pb = indicatif::ProgressBar::new(1000);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_string());
+    pb
+}
