@@ -479,10 +479,9 @@ impl TriadModel {
     /// for a sample interval `dt` s.
     pub fn finish(&self, y: Vector3<f64>, dt: f64, rng: &mut Rng) -> Vector3<f64> {
         let s = &self.spec;
-        let mut y = y;
-        if s.white > 0.0 {
-            y += rng.normal3() * (s.white / dt.sqrt());
-        }
+        // Drawn even at zero density, so the stream stays aligned across
+        // configurations.
+        let y = y + rng.normal3() * (s.white / dt.sqrt());
         y.map(|v| {
             let v = if s.full_scale > 0.0 {
                 v.clamp(-s.full_scale, s.full_scale)
@@ -509,7 +508,12 @@ pub struct ImuModel {
     pub accel: TriadModel,
     /// Gyro g-sensitivity, rad/s per m/s^2.
     pub g_sens: Matrix3<f64>,
-    noise: Rng,
+    /// White noise: its own stream, so the same seed gives the same white
+    /// noise whatever other terms are switched on (common random numbers:
+    /// a run and its noise-floor twin differ only by the other terms).
+    white: Rng,
+    /// Bias processes (Gauss-Markov, random walk).
+    drift: Rng,
 }
 
 impl ImuModel {
@@ -524,7 +528,8 @@ impl ImuModel {
             gyro,
             accel,
             g_sens,
-            noise: Rng::new(seed, 2),
+            white: Rng::new(seed, 2),
+            drift: Rng::new(seed, 4),
         }
     }
 
@@ -544,14 +549,14 @@ impl ImuModel {
         temp_c: f64,
         dt: f64,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        self.gyro.advance(dt, &mut self.noise);
-        self.accel.advance(dt, &mut self.noise);
+        self.gyro.advance(dt, &mut self.drift);
+        self.accel.advance(dt, &mut self.drift);
         let dt_c = temp_c - self.spec.temp.ambient_c;
         let g = self.gyro.apply(w, dt_c, &(self.g_sens * f));
         let a = self.accel.apply(f, dt_c, &Vector3::zeros());
         (
-            self.gyro.finish(g, dt, &mut self.noise),
-            self.accel.finish(a, dt, &mut self.noise),
+            self.gyro.finish(g, dt, &mut self.white),
+            self.accel.finish(a, dt, &mut self.white),
         )
     }
 

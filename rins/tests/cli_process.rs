@@ -1,0 +1,158 @@
+//! `rins calibrate | navigate | allan | demo` end to end on a simulated
+//! recording: outputs exist, JSON shapes are the issue's, errors are clear.
+
+use std::path::Path;
+use std::process::Command;
+
+fn rins(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_rins"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn ok(o: &std::process::Output) -> String {
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn calibrate_navigate_allan_on_a_simulated_run() {
+    let dir = std::env::temp_dir().join(format!("rins-cli-proc-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let rec = dir.join("rec");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    ok(&rins(&[
+        "simulate",
+        "--imu",
+        "nav440",
+        "--rate-dps",
+        "30",
+        "--static-s",
+        "60",
+        "--duration-s",
+        "180",
+        "--out",
+        &s(&rec),
+    ]));
+    // calibrate: the report and rins-calibration/1.
+    let cal = dir.join("cal.json");
+    let out = ok(&rins(&[
+        "calibrate",
+        &s(&rec),
+        "--json",
+        &s(&cal),
+        "--rate-dps",
+        "30",
+    ]));
+    assert!(out.contains("bias [deg/h]"), "{out}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&cal).unwrap()).unwrap();
+    assert_eq!(v["format"], "rins-calibration/1");
+    assert_eq!(v["gyro"]["bias_radps"].as_array().unwrap().len(), 3);
+    // navigate: trajectory-v1 header, one row per sample from the start, plots.
+    let nav = dir.join("nav");
+    let out = ok(&rins(&[
+        "navigate",
+        &s(&rec),
+        "--calibration",
+        &s(&cal),
+        "--out",
+        &s(&nav),
+        "--start-s",
+        "120",
+    ]));
+    assert!(out.contains("RMS"), "{out}");
+    let traj = std::fs::read_to_string(nav.join("trajectory.csv")).unwrap();
+    let mut lines = traj.lines();
+    assert!(lines.next().unwrap().starts_with(
+        "t_s,north_m,east_m,down_m,vn_mps,ve_mps,vd_mps,roll_deg,pitch_deg,heading_deg"
+    ));
+    assert_eq!(lines.count(), 6001);
+    for f in [
+        "position_error.svg",
+        "velocity_error.svg",
+        "roll_pitch_error.svg",
+        "heading_error.svg",
+    ] {
+        assert!(std::fs::read_to_string(nav.join(f))
+            .unwrap()
+            .starts_with("<svg"));
+    }
+    // allan: rins-allan/1 with all six channels and their keys.
+    let aj = dir.join("allan.json");
+    let ap = dir.join("allan.svg");
+    ok(&rins(&[
+        "allan",
+        &s(&rec),
+        "--json",
+        &s(&aj),
+        "--plot",
+        &s(&ap),
+    ]));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&aj).unwrap()).unwrap();
+    assert_eq!(v["format"], "rins-allan/1");
+    for ch in [
+        "gyro_x_radps",
+        "gyro_y_radps",
+        "gyro_z_radps",
+        "accel_x_mps2",
+        "accel_y_mps2",
+        "accel_z_mps2",
+    ] {
+        let c = &v["channels"][ch];
+        let n = c["tau_s"].as_array().unwrap().len();
+        assert!(n > 5, "{ch}");
+        for k in ["adev", "adev_lo", "adev_hi"] {
+            assert_eq!(c[k].as_array().unwrap().len(), n, "{ch}.{k}");
+        }
+        for k in [
+            "white_noise_density",
+            "bias_instability",
+            "rate_random_walk",
+        ] {
+            assert!(c[k].is_f64(), "{ch}.{k}");
+        }
+    }
+    // A calibration for another axis is refused with the reason.
+    let mut bad = v.clone();
+    bad["format"] = "x".into();
+    let badp = dir.join("bad.json");
+    std::fs::write(&badp, bad.to_string()).unwrap();
+    let o = rins(&[
+        "navigate",
+        &s(&rec),
+        "--calibration",
+        &s(&badp),
+        "--out",
+        &s(&dir.join("n2")),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("rins-calibration/1"));
+    // A malformed recording names the file and line.
+    std::fs::write(rec.join("imu.csv"), "t_s,gyro_x_radps\n0,1\n").unwrap();
+    let o = rins(&["allan", &s(&rec)]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("imu.csv:1: missing column gyro_y_radps"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn demo_runs_and_writes_its_plots() {
+    let dir = std::env::temp_dir().join(format!("rins-cli-demo-{}", std::process::id()));
+    let out = ok(&rins(&["demo", "--out", dir.to_str().unwrap()]));
+    assert!(
+        out.contains("conventional") && out.contains("rotary"),
+        "{out}"
+    );
+    for f in [
+        "position_error.svg",
+        "roll_pitch_error.svg",
+        "calibration.json",
+        "trajectory_rotary.csv",
+    ] {
+        assert!(dir.join(f).exists(), "{f}");
+    }
+    assert!(dir.join("recording_rotary").join("imu.csv").exists());
+    std::fs::remove_dir_all(&dir).unwrap();
+}
