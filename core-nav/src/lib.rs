@@ -51,6 +51,7 @@ pub mod attitude;
 pub mod calib;
 pub mod earth;
 pub mod error;
+pub mod multipos;
 pub mod real;
 pub mod scheme;
 pub mod strapdown;
