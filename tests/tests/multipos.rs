@@ -48,6 +48,16 @@ fn var_sum(v: &[Vector3<f64>]) -> f64 {
     v.iter().map(|x| (x - m).norm_squared()).sum::<f64>() / v.len() as f64
 }
 
+/// A Tedaldi calibration and what it was fitted on.
+struct Tedaldi {
+    accel: TriadCorrection,
+    gyro: TriadCorrection,
+    intervals: Vec<(usize, usize)>,
+    accel_rms: f64,
+    gyro_rms: f64,
+    outliers: usize,
+}
+
 /// Calibrates accel (Tedaldi) then gyro (gravity between rests).
 fn calibrate(
     acc: &[Vector3<f64>],
@@ -56,13 +66,7 @@ fn calibrate(
     rest: std::ops::Range<usize>,
     g: f64,
     gyro_init: Matrix3<f64>,
-) -> (
-    TriadCorrection,
-    TriadCorrection,
-    Vec<(usize, usize)>,
-    f64,
-    (f64, usize),
-) {
+) -> Tedaldi {
     let ref_var = var_sum(&acc[rest.clone()]);
     let mut iv = [(0usize, 0usize); 200];
     // Window +-0.5 s, threshold 10x the rest's variance, 1 s minimum (the
@@ -73,11 +77,20 @@ fn calibrate(
     let means: Vec<Vector3<f64>> = intervals.iter().map(|&(a, b)| mean(&acc[a..b])).collect();
     let centre = mean(&means);
     let spread = means.iter().map(|m| (m - centre).norm()).sum::<f64>() / means.len() as f64;
-    let (ac, arms) = fit_accelerometer(&means, g, centre, Vector3::repeat(g / spread)).unwrap();
-    let up: Vec<Vector3<f64>> = means.iter().map(|m| ac.apply(m).normalize()).collect();
+    let (accel, accel_rms) =
+        fit_accelerometer(&means, g, centre, Vector3::repeat(g / spread)).unwrap();
+    let up: Vec<Vector3<f64>> = means.iter().map(|m| accel.apply(m).normalize()).collect();
     let bias = mean(&gyr[rest]);
-    let (gc, grms, outliers) = fit_gyroscope(gyr, dt, &intervals, &up, bias, gyro_init).unwrap();
-    (ac, gc, intervals, arms, (grms, outliers))
+    let (gyro, gyro_rms, outliers) =
+        fit_gyroscope(gyr, dt, &intervals, &up, bias, gyro_init).unwrap();
+    Tedaldi {
+        accel,
+        gyro,
+        intervals,
+        accel_rms,
+        gyro_rms,
+        outliers,
+    }
 }
 
 #[test]
