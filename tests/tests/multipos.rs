@@ -103,8 +103,14 @@ fn xsens_multi_position_session() {
     // imu_tk: 50 s initial rest; gravity 9.81744; gyro 1/6258 (rad/s)/count.
     let rest = 0..(50.0 / dt) as usize;
     let g = 9.817_44;
-    let (ac, gc, intervals, arms, (grms, outliers)) =
-        calibrate(&acc, &gyr, dt, rest, g, Matrix3::identity() / 6258.0);
+    let Tedaldi {
+        accel: ac,
+        gyro: gc,
+        intervals,
+        accel_rms: arms,
+        gyro_rms: grms,
+        outliers,
+    } = calibrate(&acc, &gyr, dt, rest, g, Matrix3::identity() / 6258.0);
     let worst = intervals
         .iter()
         .map(|&(a, b)| (ac.apply(&mean(&acc[a..b])).norm() / g - 1.0).abs())
