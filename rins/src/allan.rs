@@ -97,7 +97,7 @@ pub fn svg(chs: &[ChannelAllan], title: &str) -> String {
             s.bars = Some(c.points.iter().map(|p| (p.lo, p.hi)).collect());
             series.push(s);
             let mut f = Series::line(
-                format!("fit {}", &c.name[..c.name.len().min(7)]),
+                format!("fit {}", c.name.rsplit_once('_').map_or(c.name, |(a, _)| a)),
                 c.points
                     .iter()
                     .map(|p| (p.tau_s, c.fit.adev_at(p.tau_s)))

@@ -155,7 +155,32 @@ pub struct AllanArgs {
 
 /// Runs `rins allan`.
 pub fn allan(a: &AllanArgs) -> Result<()> {
-    let rec = read_recording(&a.rec)?;
+    let mut rec = read_recording(&a.rec)?;
+    // Allan deviation characterises a still sensor: when the table turned,
+    // use the longest static stretch and say so.
+    let moved = rec
+        .table
+        .windows(2)
+        .any(|w| (w[1].angle_rad - w[0].angle_rad).abs() > 1e-9);
+    if moved {
+        let segs = calibrate::segments(&rec, 10.0, 0.5);
+        let longest = segs
+            .iter()
+            .filter(|s| s.rate_radps == 0.0)
+            .max_by(|a, b| (a.t1_s - a.t0_s).total_cmp(&(b.t1_s - b.t0_s)));
+        let Some(s) = longest else {
+            bail!(
+                "{}: the table turns throughout; Allan deviation needs a still sensor",
+                a.rec.display()
+            );
+        };
+        println!(
+            "the table turns in this recording: using its longest still stretch, {:.1}-{:.1} s",
+            s.t0_s, s.t1_s
+        );
+        let (t0, t1) = (s.t0_s, s.t1_s);
+        rec.imu.retain(|r| r.t_s >= t0 && r.t_s <= t1);
+    }
     if rec.imu.len() < 100 {
         bail!(
             "{}: {} IMU samples are too few for an Allan deviation",

@@ -59,6 +59,13 @@ enum Command {
 }
 
 fn main() -> Result<()> {
+    // Like any Unix filter: a closed pipe (`rins allan ... | head`) ends the
+    // process quietly instead of a failed print.
+    #[cfg(unix)]
+    // SAFETY: restoring the default action of one signal before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match cli.command {
         Command::Simulate(a) => simulate::run(&a),
