@@ -527,19 +527,30 @@ pub struct GyroCalibration {
     pub sigma_a: Vector3<f64>,
     /// Table axis.
     pub axis: Axis,
+    /// A second calibrated column for a tri-axial table (the outer gimbal's
+    /// axis and its `M k2`), from a rotation about that axis.
+    pub second: Option<(Axis, Vector3<f64>)>,
 }
 
 impl GyroCalibration {
     /// Corrects a gyro sample (rad/s, in `s`): removes the bias, the
     /// nonlinear terms at the measured table-axis rate, and inverts
-    /// `I + M` restricted to column `k` (Sherman-Morrison, exact).
+    /// `I + M` restricted to column `k` (Sherman-Morrison, exact), or to
+    /// columns `k` and `k2` with a second axis (3x3 inverse, exact).
     pub fn apply<T: Real>(&self, w: &Vector3<T>) -> Vector3<T> {
         let k = self.axis.unit::<f64>();
         let w = w.map(|x| x.to_f64());
         let r = k.dot(&w);
         let y = w - self.bias - self.q * (r * r) - self.a * libm::fabs(r);
-        // (I + m k^T)^-1 y = y - m (k.y) / (1 + k.m)
-        let x = y - self.m_k * (k.dot(&y) / (1.0 + k.dot(&self.m_k)));
+        let x = match self.second {
+            None => y - self.m_k * (k.dot(&y) / (1.0 + k.dot(&self.m_k))),
+            Some((axis2, m2)) => {
+                let i_m = Matrix3::identity()
+                    + self.m_k * k.transpose()
+                    + m2 * axis2.unit::<f64>().transpose();
+                i_m.try_inverse().map_or(y, |inv| inv * y)
+            }
+        };
         x.map(T::lit)
     }
 }

@@ -326,6 +326,174 @@ mod tests {
             assert!(i.at(2.5).rate == 0.0 && i.at(2.5).angle == 0.0);
         }
         assert!(Profile::new(Scheme::Continuous { rate: 0.0 }, lim).is_err());
+        // Dual-axis: both gimbals back at 0 after a period, each moving
+        // 180 deg at a time, never both at once.
+        for n in [8, 16] {
+            let d = DualAxisProfile::new(n, rate, 2.0, lim).unwrap();
+            let end = d.at(d.period_s() - 1e-9);
+            assert!(
+                end.inner.angle.abs() < 1e-6 && end.outer.angle.abs() < 1e-6,
+                "{end:?}"
+            );
+            let mut t = 0.0;
+            while t < d.period_s() {
+                let r = d.at(t);
+                assert!(r.inner.rate == 0.0 || r.outer.rate == 0.0);
+                t += 0.05;
+            }
+        }
+        assert!(DualAxisProfile::new(6, rate, 2.0, lim).is_err());
         assert!(Profile::new(Scheme::Reciprocating { rate, turns: 0 }, lim).is_err());
+    }
+}
+
+/// The two gimbals of a tri-axial table used for dual-axis schemes: the
+/// outer turns about the base's x axis, the inner (carried by the outer)
+/// about the sensor's z axis: `c_s_b = Rx(outer) Rz(inner)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Gimbal {
+    /// About the sensor z (the inner gimbal).
+    Inner,
+    /// About the base x (the outer gimbal).
+    Outer,
+}
+
+/// Most moves in one period of a dual-axis sequence.
+const MAX_DUAL_MOVES: usize = 16;
+
+/// A dual-axis indexing sequence (simulation only: a tri-axial table):
+/// 180 deg moves alternating between the inner and outer gimbals, each
+/// after a dwell. 8 positions: `I+ O+ I+ O+ I- O- I- O-`: each gimbal turns
+/// a whole turn forward in two half turns, interleaved with the other, then
+/// back, so every error fixed in the sensor spends equal time pointing each
+/// way about both axes (the z gyro included) and each direction of turning
+/// is used as much as the other; 16 positions: those 8 and their mirror
+/// with the gimbals swapped, so both axes lead equally often.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DualAxisProfile {
+    moves: [(Gimbal, f64); MAX_DUAL_MOVES],
+    count: usize,
+    dwell_s: f64,
+    segment: Segment,
+    period_s: f64,
+}
+
+/// Both gimbals' references at one time.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct DualReference {
+    /// Inner gimbal (about sensor z).
+    pub inner: Reference,
+    /// Outer gimbal (about base x).
+    pub outer: Reference,
+}
+
+impl DualAxisProfile {
+    /// An 8- or 16-position sequence moving at `rate` (rad/s) under
+    /// `limits`, dwelling `dwell_s` before each move.
+    ///
+    /// # Errors
+    /// [`NavError::BadScheme`] for other position counts, a bad rate or dwell.
+    pub fn new(positions: u8, rate: f64, dwell_s: f64, limits: Limits) -> Result<Self, NavError> {
+        use Gimbal::{Inner as I, Outer as O};
+        const H: f64 = core::f64::consts::PI;
+        let first: [(Gimbal, f64); 8] = [
+            (I, H),
+            (O, H),
+            (I, H),
+            (O, H),
+            (I, -H),
+            (O, -H),
+            (I, -H),
+            (O, -H),
+        ];
+        let mirror: [(Gimbal, f64); 8] = [
+            (O, H),
+            (I, H),
+            (O, H),
+            (I, H),
+            (O, -H),
+            (I, -H),
+            (O, -H),
+            (I, -H),
+        ];
+        if !(rate.is_finite()
+            && rate > 0.0
+            && rate <= limits.max_rate
+            && dwell_s >= 0.0
+            && dwell_s.is_finite())
+        {
+            return Err(NavError::BadScheme);
+        }
+        let mut moves = [(I, 0.0); MAX_DUAL_MOVES];
+        let count = match positions {
+            8 => 8,
+            16 => 16,
+            _ => return Err(NavError::BadScheme),
+        };
+        for (slot, m) in moves
+            .iter_mut()
+            .zip(first.iter().chain(mirror.iter()))
+            .take(count)
+        {
+            *slot = *m;
+        }
+        let segment = Segment::mv(H, rate, limits.max_accel);
+        Ok(Self {
+            moves,
+            count,
+            dwell_s,
+            segment,
+            period_s: count as f64 * (dwell_s + segment.duration),
+        })
+    }
+
+    /// Length of one period, s.
+    pub fn period_s(&self) -> f64 {
+        self.period_s
+    }
+
+    /// Both gimbals `t_s` seconds after the sequence started (before: still).
+    pub fn at(&self, t_s: f64) -> DualReference {
+        let mut out = DualReference::default();
+        if t_s.partial_cmp(&0.0) != Some(core::cmp::Ordering::Greater) || self.period_s <= 0.0 {
+            return out;
+        }
+        let mut tau = t_s - libm::floor(t_s / self.period_s) * self.period_s;
+        let step = self.dwell_s + self.segment.duration;
+        for (g, a) in self.moves.iter().take(self.count) {
+            if tau < step {
+                let mut r = Reference::default();
+                if tau >= self.dwell_s {
+                    r = self.segment.at(tau - self.dwell_s);
+                    let sg = a.signum();
+                    r = Reference {
+                        angle: r.angle * sg,
+                        rate: r.rate * sg,
+                        accel: r.accel * sg,
+                    };
+                }
+                match g {
+                    Gimbal::Inner => {
+                        out.inner = Reference {
+                            angle: out.inner.angle + r.angle,
+                            ..r
+                        }
+                    }
+                    Gimbal::Outer => {
+                        out.outer = Reference {
+                            angle: out.outer.angle + r.angle,
+                            ..r
+                        }
+                    }
+                }
+                return out;
+            }
+            match g {
+                Gimbal::Inner => out.inner.angle += a,
+                Gimbal::Outer => out.outer.angle += a,
+            }
+            tau -= step;
+        }
+        out
     }
 }

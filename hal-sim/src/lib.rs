@@ -9,6 +9,7 @@
 
 pub mod bench;
 pub mod drivers;
+pub mod dual;
 pub mod icm42688;
 pub mod ideal;
 pub mod imu;

@@ -420,6 +420,7 @@ pub fn from_json(v: &Value) -> Result<GyroCalibration> {
         sigma_q: vec(&["predicted_sigma", "q_per_radps"])?,
         sigma_a: vec(&["predicted_sigma", "asymmetry"])?,
         axis,
+        second: None,
     })
 }
 

@@ -107,6 +107,7 @@ pub fn navigate(a: &NavigateArgs) -> Result<()> {
         calibration,
         f32: a.f32,
         hold_height: a.hold_height,
+        gimbals: None,
     };
     let pb = progress_bar("navigate");
     let rows = nav::navigate(&rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
@@ -392,6 +393,7 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
             calibration: Some(c),
             f32: true,
             hold_height: false,
+            gimbals: None,
         };
         nav::navigate(rec, &o, &mut |_| {})
     };

@@ -25,6 +25,16 @@ pub struct NavOptions {
     pub f32: bool,
     /// Hold the height (long static runs).
     pub hold_height: bool,
+    /// A tri-axial table's gimbal angles (inner about sensor z, outer about
+    /// base x), rad, one per IMU sample: replaces the single-axis encoder
+    /// angle for the initial and the output attitude (`c_s_b = Rx(outer)
+    /// Rz(inner)`; simulation only).
+    pub gimbals: Option<Vec<(f64, f64)>>,
+}
+
+/// `q_s_b` of a tri-axial table's gimbals: `Rx(outer) Rz(inner)`.
+pub fn q_s_b_gimbals(inner: f64, outer: f64) -> Quaternion<f64> {
+    q_s_b(core_nav::table::Axis::X, outer) * q_s_b(core_nav::table::Axis::Z, inner)
 }
 
 /// One output row: trajectory-v1 columns in SI / degrees.
@@ -113,7 +123,13 @@ fn navigate_t<T: Real>(
     let base = Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg);
     let s0 = sample(first);
     let theta0 = angle_at(s0.t_us, &mut enc)?;
-    let q0 = euler_to_quat(&base) * q_s_b(m.axis, theta0.to_f64());
+    let gimbal = |k: usize| {
+        opt.gimbals
+            .as_ref()
+            .and_then(|g| g.get(k))
+            .map(|&(i, o)| q_s_b_gimbals(i, o))
+    };
+    let q0 = euler_to_quat(&base) * gimbal(first).unwrap_or_else(|| q_s_b(m.axis, theta0.to_f64()));
     let cfg = StrapdownConfig {
         max_dt_us: (6e6 / m.imu_rate_hz) as u64,
         vertical: if opt.hold_height {
@@ -136,9 +152,13 @@ fn navigate_t<T: Real>(
     let n_total = rec.imu.len().saturating_sub(first).max(1);
     let mut out = Vec::with_capacity(n_total);
     let mut faults = 0u32;
-    let row = |s: &core_nav::strapdown::NavState<T>, theta: T, t_s: f64, faults: u32| {
-        let q = q_b_n(&s.q_s_n, m.axis, theta);
-        let e = quat_to_euler(&Quaternion::from(q.coords.map(|x| x.to_f64())));
+    let row = |s: &core_nav::strapdown::NavState<T>, theta: T, k: usize, faults: u32| {
+        let t_s = rec.imu[k].t_s;
+        let q = match gimbal(k) {
+            Some(q_s_b) => Quaternion::from(s.q_s_n.coords.map(|x| x.to_f64())) * q_s_b.conjugate(),
+            None => Quaternion::from(q_b_n(&s.q_s_n, m.axis, theta).coords.map(|x| x.to_f64())),
+        };
+        let e = quat_to_euler(&q);
         let ned = origin.ned_to(&earth.point_at(&s.p_n));
         let mut hdg = e.heading.to_degrees();
         if hdg < 0.0 {
@@ -155,16 +175,15 @@ fn navigate_t<T: Real>(
             faults,
         }
     };
-    out.push(row(nav.state(), theta0, rec.imu[first].t_s, 0));
+    out.push(row(nav.state(), theta0, first, 0));
     for k in first + 1..rec.imu.len() {
-        let t_s = rec.imu[k].t_s;
-        if t_s > end {
+        if rec.imu[k].t_s > end {
             break;
         }
         let s = sample(k);
         let theta = angle_at(s.t_us, &mut enc)?;
         match nav.step(&s) {
-            Ok(st) => out.push(row(st, theta, t_s, faults)),
+            Ok(st) => out.push(row(st, theta, k, faults)),
             Err(_) => faults += 1,
         }
         if (k - first).is_multiple_of(50_000) {

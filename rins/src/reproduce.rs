@@ -53,6 +53,13 @@ pub enum Plan {
     /// White noise only (the profile's ARW and VRW), same table motion, no
     /// calibration needed: the limit.
     NoiseFloor,
+    /// The paper's calibration window (earth-aware), then a dual-axis
+    /// sequence of `positions` (8 or 16) on a tri-axial table (simulation
+    /// only), 180 deg moves at the rate, no dwell.
+    DualAxis {
+        /// 8 or 16.
+        positions: u8,
+    },
 }
 
 /// One table row: a mode at a rate, averaged over runs.
@@ -91,9 +98,14 @@ pub fn run_one(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Result<S
 /// As [`run_one`].
 pub fn run_one_spec(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Result<StaticErrors> {
     let rate = rate_dps.to_radians();
+    if let Plan::DualAxis { positions } = plan {
+        return run_dual(spec, positions, rate, seed);
+    }
     let (imu, scheme, static_s) = match plan {
         Plan::Conventional => (spec.clone(), Scheme::Still, 0.0),
-        Plan::Paper { .. } | Plan::Best => (spec.clone(), Scheme::Continuous { rate }, 60.0),
+        Plan::Paper { .. } | Plan::Best | Plan::DualAxis { .. } => {
+            (spec.clone(), Scheme::Continuous { rate }, 60.0)
+        }
         Plan::NoiseFloor => {
             let mut w = ImuSpec::ideal();
             w.gyro.white = spec.gyro.white;
@@ -128,7 +140,7 @@ pub fn run_one_spec(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Res
 
 fn calibration(rec: &Recording, plan: Plan) -> Result<Option<GyroCalibration>> {
     Ok(match plan {
-        Plan::NoiseFloor => None,
+        Plan::NoiseFloor | Plan::DualAxis { .. } => None,
         Plan::Conventional => {
             // The paper: the first minute's mean is the bias (earth rate and all).
             let n = rec.imu.iter().take_while(|r| r.t_s < 60.0).count().max(1);
@@ -152,6 +164,60 @@ fn calibration(rec: &Recording, plan: Plan) -> Result<Option<GyroCalibration>> {
         }
         Plan::Best => Some(calibrate(rec, (0.0, CAL_S), Method::Earth, None)?.gyro),
     })
+}
+
+/// A dual-axis run: 40 s still, one reciprocating cycle about z, one about
+/// x (each column of the gyro errors from its own +-turns, earth-aware),
+/// then 5 min of the dual-axis sequence at the rate.
+fn run_dual(spec: &ImuSpec, positions: u8, rate: f64, seed: u64) -> Result<StaticErrors> {
+    use core_nav::scheme::{DualAxisProfile, Limits, Profile};
+    let limits = Limits::default();
+    let recip = Profile::new(Scheme::Reciprocating { rate, turns: 1 }, limits)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cycle = recip.period_s();
+    let dual =
+        DualAxisProfile::new(positions, rate, 0.0, limits).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (kin, start) = hal_sim::dual::calibrate_then_dual(recip, 40.0, dual);
+    let run = hal_sim::dual::simulate_gimbals(
+        spec.clone(),
+        hal_sim::world::Site::new(30.53, 20.0),
+        &kin,
+        start + NAV_S,
+        seed,
+    );
+    let cz = calibrate(
+        &run.recording,
+        (40.0 - 1.0, 40.0 + cycle + 0.5),
+        Method::Reciprocating,
+        None,
+    )?
+    .gyro;
+    let mut rx = run.recording.clone();
+    rx.meta.axis = Axis::X;
+    for (row, (_, outer)) in rx.table.iter_mut().zip(&run.angles) {
+        row.angle_rad = *outer;
+    }
+    let cx = calibrate(
+        &rx,
+        (40.0 + cycle - 0.5, start + 0.5),
+        Method::Reciprocating,
+        None,
+    )?
+    .gyro;
+    let cal = GyroCalibration {
+        bias: (cz.bias + cx.bias) * 0.5,
+        second: Some((Axis::X, cx.m_k)),
+        ..cz
+    };
+    let opt = NavOptions {
+        start_s: start,
+        end_s: Some(start + NAV_S),
+        calibration: Some(cal),
+        gimbals: Some(run.angles),
+        ..NavOptions::default()
+    };
+    let rows = navigate(&run.recording, &opt, &mut |_| {})?;
+    Ok(static_errors(&rows, [0.0, 0.0, 0.0]))
 }
 
 /// Averages error sets.
