@@ -71,6 +71,19 @@ fn with_interval(mut p: AdevPoint) -> AdevPoint {
     p
 }
 
+/// The mean of `y` in f64; `None` if a sample is not finite or `y` is empty.
+fn finite_mean<T: Real>(y: &[T]) -> Option<f64> {
+    let mut sum = 0.0;
+    for v in y {
+        let v = v.to_f64();
+        if !v.is_finite() {
+            return None;
+        }
+        sum += v;
+    }
+    (!y.is_empty()).then(|| sum / y.len() as f64)
+}
+
 /// Overlapping ADEV of `y` (period `tau0_s`) at averaging factor `m`.
 /// `None` when `m == 0` or `2m > N` (no second difference fits), or when
 /// a sample is not finite.
@@ -79,15 +92,7 @@ pub fn oadev<T: Real>(y: &[T], tau0_s: f64, m: usize) -> Option<AdevPoint> {
     if m == 0 || 2 * m > n {
         return None;
     }
-    let mut mean = 0.0;
-    for v in y {
-        let v = v.to_f64();
-        if !v.is_finite() {
-            return None;
-        }
-        mean += v;
-    }
-    mean /= n as f64;
+    let mean = finite_mean(y)?;
     let at = |i: usize| y.get(i).map_or(0.0, |v| v.to_f64() - mean);
     let window = |start: usize| (start..start + m).map(at).sum::<f64>();
     let terms = n - 2 * m + 1;
@@ -137,15 +142,7 @@ pub fn adev<T: Real>(y: &[T], tau0_s: f64, m: usize) -> Option<AdevPoint> {
     if blocks < 2 {
         return None;
     }
-    let mut mean = 0.0;
-    for v in y {
-        let v = v.to_f64();
-        if !v.is_finite() {
-            return None;
-        }
-        mean += v;
-    }
-    mean /= y.len() as f64;
+    let mean = finite_mean(y)?;
     let block = |k: usize| {
         y.iter()
             .skip(k * m)

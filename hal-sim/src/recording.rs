@@ -500,7 +500,8 @@ fn check_time(path: &Path, line: usize, prev: Option<f64>, t: f64) -> Result<(),
     Ok(())
 }
 
-const IMU_COLS: [&str; 8] = [
+/// The `imu.csv` columns: time, the six channels (rad/s, m/s^2), temperature.
+pub const IMU_COLS: [&str; 8] = [
     "t_s",
     "gyro_x_radps",
     "gyro_y_radps",

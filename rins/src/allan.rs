@@ -6,15 +6,11 @@ use core_nav::allan::{fit_noise, oadev, octave_factors, AdevPoint, NoiseFit};
 use hal_sim::recording::Recording;
 use serde_json::{json, Map, Value};
 
-/// The channel names, in the recording's column order.
-pub const CHANNELS: [&str; 6] = [
-    "gyro_x_radps",
-    "gyro_y_radps",
-    "gyro_z_radps",
-    "accel_x_mps2",
-    "accel_y_mps2",
-    "accel_z_mps2",
-];
+/// The channel names, in the recording's column order (recording-v1).
+pub const CHANNELS: [&str; 6] = {
+    let c = hal_sim::recording::IMU_COLS;
+    [c[1], c[2], c[3], c[4], c[5], c[6]]
+};
 
 /// Octaves need at least this many second differences to be shown.
 pub const MIN_TERMS: usize = 10;
