@@ -6,12 +6,21 @@
 //! calibration and telemetry arrive with the firmware issue; the clock tree
 //! is left at reset (HSI 16 MHz) until then.
 
-#![no_std]
-#![no_main]
+#![cfg_attr(target_os = "none", no_std, no_main)]
 
+/// On the host there is nothing to run: the logic is the `firmware` library,
+/// tested through `hal-sim` in `tests/`.
+#[cfg(not(target_os = "none"))]
+fn main() {
+    println!("the rins firmware runs on the STM32F405: build it with `cargo fw`");
+}
+
+#[cfg(target_os = "none")]
 use defmt_rtt as _;
+#[cfg(target_os = "none")]
 use panic_probe as _;
 
+#[cfg(target_os = "none")]
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1])]
 mod app {
     use core_nav::earth::GeoPoint;
