@@ -34,7 +34,7 @@ fn samples() -> Vec<Telemetry> {
     vec![
         Telemetry::Imu {
             t_us: 10_000,
-            gyro_radps: [1e-4, -0.0, 0.5235],
+            gyro_radps: [1e-4, -0.0, 0.75],
             accel_mps2: [0.0, 1e-3, -9.7936],
             temp_c: 25.25,
         },
