@@ -110,12 +110,13 @@ pub struct Config {
 }
 
 impl Default for Config {
-    /// +-500 deg/s (the table turns at most 200 deg/s), +-4 g, 100 Hz.
+    /// +-500 deg/s (the table turns at most 200 deg/s), +-4 g, 1 kHz (the
+    /// rate loop's rate; navigation takes every tenth sample).
     fn default() -> Self {
         Self {
             gyro_fs: GyroFs::Dps500,
             accel_fs: AccelFs::G4,
-            odr: Odr::Hz100,
+            odr: Odr::Hz1000,
         }
     }
 }

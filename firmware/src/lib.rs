@@ -22,5 +22,8 @@
     )
 )]
 
+pub mod app;
+pub mod control;
+pub mod faults;
 pub mod icm42688;
 pub mod telemetry;

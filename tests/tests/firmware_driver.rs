@@ -128,7 +128,7 @@ fn driver_bus_transactions_are_the_datasheets() {
         T::read_vec(vec![0x47]),
         T::transaction_end(),
         // Bank 0, big-endian data, INT1 push-pull active-high latched,
-        // data ready to INT1, +-500 deg/s @ 100 Hz, +-4 g @ 100 Hz, both on.
+        // data ready to INT1, +-500 deg/s @ 1 kHz, +-4 g @ 1 kHz, both on.
         T::transaction_start(),
         T::write_vec(vec![reg::REG_BANK_SEL, 0x00]),
         T::transaction_end(),
@@ -142,10 +142,10 @@ fn driver_bus_transactions_are_the_datasheets() {
         T::write_vec(vec![reg::INT_SOURCE0, 0x08]),
         T::transaction_end(),
         T::transaction_start(),
-        T::write_vec(vec![reg::GYRO_CONFIG0, 0x48]),
+        T::write_vec(vec![reg::GYRO_CONFIG0, 0x46]),
         T::transaction_end(),
         T::transaction_start(),
-        T::write_vec(vec![reg::ACCEL_CONFIG0, 0x48]),
+        T::write_vec(vec![reg::ACCEL_CONFIG0, 0x46]),
         T::transaction_end(),
         T::transaction_start(),
         T::write_vec(vec![reg::PWR_MGMT0, 0x0F]),
