@@ -575,8 +575,15 @@ impl App {
             }
         }
         self.glitch_run = 0;
+        let moved = self.last_hw.is_some_and(|(_, hl)| hl != hw);
         self.last_hw = Some((t_us, hw));
         let counts = self.unwrap.update(hw);
+        // The static phase counts only while the table is at rest (after a
+        // refusal the table may still be coasting down).
+        if moved && matches!(self.mode, Mode::CalStatic(_)) {
+            self.static_acc = PhaseAccumulator::new(0.0, Axis::Z);
+            self.mode = Mode::CalStatic(t_us);
+        }
         self.last_count = Some((t_us, counts));
         if self
             .enc

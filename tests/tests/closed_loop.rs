@@ -29,6 +29,8 @@ struct Board {
     consumed: Vec<(u64, Sample)>,
     nav_start: Option<(usize, Strapdown<f32>)>,
     read_imu: bool,
+    /// Read the IMU on the 1 kHz timer whether or not data-ready is set.
+    ignore_drdy: bool,
 }
 
 impl Board {
@@ -53,6 +55,7 @@ impl Board {
             consumed: vec![],
             nav_start: None,
             read_imu: true,
+            ignore_drdy: false,
         }
     }
 
@@ -68,7 +71,12 @@ impl Board {
                 self.app.on_encoder(t, hw);
             }
             if self.read_imu {
-                match self.imu.data_ready() {
+                let ready = if self.ignore_drdy {
+                    self.imu.data_ready().map(|_| true)
+                } else {
+                    self.imu.data_ready()
+                };
+                match ready {
                     Ok(true) => match self.imu.read_si() {
                         Ok((raw, s)) => {
                             let was_nav = self.app.mode == Mode::Navigating;
@@ -191,4 +199,202 @@ fn rate_loop_holds_10_to_100_dps() {
         );
         assert!(rms.to_degrees() < 0.5, "{dps}: {}", rms.to_degrees());
     }
+}
+
+/// A board through calibration and into navigation quickly (5 s still, 15 s
+/// rotating at 90 deg/s).
+fn navigating_board(seed: u64) -> Board {
+    let cfg = AppConfig {
+        scheme: Scheme::Continuous {
+            rate: 90f64.to_radians(),
+        },
+        static_s: 5.0,
+        rotate_s: 15.0,
+        ..AppConfig::default()
+    };
+    let mut b = Board::new(ImuSpec::icm42688(), cfg, seed);
+    b.run(25.0);
+    assert_eq!(
+        b.app.mode,
+        Mode::Navigating,
+        "refused: {:?}",
+        b.app.last_refusal
+    );
+    b
+}
+
+#[test]
+fn spi_errors_are_counted_and_navigation_continues() {
+    let mut b = navigating_board(11);
+    b.bench.borrow_mut().chip.faults.spi_error = true;
+    b.run(0.05);
+    b.bench.borrow_mut().chip.faults.spi_error = false;
+    b.run(1.0);
+    assert!(
+        b.app.faults.get(Fault::SpiError) >= 40,
+        "{}",
+        b.app.faults.get(Fault::SpiError)
+    );
+    assert_eq!(b.app.mode, Mode::Navigating);
+}
+
+#[test]
+fn stuck_imu_stops_the_motor() {
+    // A hung chip stops raising data-ready: the watchdog catches it.
+    let mut b = navigating_board(12);
+    b.bench.borrow_mut().chip.faults.stuck = true;
+    b.run(0.5);
+    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuTimeout));
+    assert_eq!(b.app.duty(), 0.0);
+    // A board reading on its timer sees the frozen values themselves.
+    let mut b = navigating_board(12);
+    b.ignore_drdy = true;
+    b.bench.borrow_mut().chip.faults.stuck = true;
+    b.run(0.5);
+    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuStuck));
+    assert_eq!(b.app.duty(), 0.0);
+}
+
+#[test]
+fn saturated_samples_are_skipped_and_counted() {
+    let mut b = navigating_board(13);
+    b.bench.borrow_mut().chip.faults.saturated = true;
+    b.run(0.1);
+    b.bench.borrow_mut().chip.faults.saturated = false;
+    b.run(0.5);
+    assert!(b.app.faults.get(Fault::ImuSaturated) >= 90);
+    assert_eq!(b.app.mode, Mode::Navigating);
+}
+
+#[test]
+fn encoder_glitch_is_dropped_and_counted() {
+    let mut b = navigating_board(14);
+    let p0 = b.app.nav().unwrap().state().p_n;
+    b.bench.borrow_mut().faults.encoder_offset_counts = 3_000;
+    b.run(0.03);
+    b.bench.borrow_mut().faults.encoder_offset_counts = 0;
+    b.run(2.0);
+    // One or two reads fall in the 30 ms (50 Hz reads).
+    assert!((1..=2).contains(&b.app.faults.get(Fault::EncoderGlitch)));
+    assert_eq!(b.app.mode, Mode::Navigating);
+    // The navigation (sensor frame) does not see the encoder at all.
+    assert!((b.app.nav().unwrap().state().p_n - p0).norm() < 5.0);
+}
+
+#[test]
+fn motor_stall_stops_the_motor() {
+    let mut b = navigating_board(15);
+    b.bench.borrow_mut().faults.motor_stall = true;
+    b.run(3.0);
+    assert_eq!(b.app.mode, Mode::Stopped(Fault::MotorStall));
+    assert_eq!(b.app.duty(), 0.0);
+}
+
+#[test]
+fn imu_silence_trips_the_watchdog() {
+    let mut b = navigating_board(16);
+    b.read_imu = false;
+    b.run(0.3);
+    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuTimeout));
+    assert_eq!(b.app.duty(), 0.0);
+}
+
+#[test]
+fn a_bump_restarts_the_calibration_which_then_succeeds() {
+    let cfg = AppConfig {
+        scheme: Scheme::Continuous {
+            rate: 90f64.to_radians(),
+        },
+        static_s: 10.0,
+        rotate_s: 15.0,
+        ..AppConfig::default()
+    };
+    let mut b = Board::new(ImuSpec::icm42688(), cfg, 17);
+    let t0 = b.t_us as f64 * 1e-6;
+    b.bench.borrow_mut().bump(hal_sim::world::Bump {
+        t_s: t0 + 4.0,
+        duration_s: 0.3,
+        rate_b: nalgebra::Vector3::new(0.2, 0.0, 0.0),
+        accel_b: nalgebra::Vector3::zeros(),
+    });
+    b.run(50.0);
+    assert_eq!(b.app.faults.get(Fault::CalibrationRefused), 1);
+    assert!(
+        matches!(
+            b.app.last_refusal,
+            Some(core_nav::calib::CalibError::NotStatic { .. })
+        ),
+        "{:?}",
+        b.app.last_refusal
+    );
+    assert_eq!(b.app.mode, Mode::Navigating);
+}
+
+#[test]
+fn a_table_that_cannot_reach_its_rate_is_refused() {
+    let cfg = AppConfig {
+        scheme: Scheme::Continuous {
+            rate: 90f64.to_radians(),
+        },
+        static_s: 5.0,
+        rotate_s: 15.0,
+        ..AppConfig::default()
+    };
+    let mut b = Board::new(ImuSpec::icm42688(), cfg, 18);
+    // A dragging bearing: 0.5 N m s/rad of viscous friction against the
+    // motor's 0.4 N m stall torque: 46 deg/s at most.
+    b.bench.borrow_mut().table.motor.viscous = 0.5;
+    b.run(20.0);
+    assert!(
+        matches!(
+            b.app.last_refusal,
+            Some(core_nav::calib::CalibError::RateNotReached { .. })
+        ),
+        "{:?}",
+        b.app.last_refusal
+    );
+    assert!(matches!(
+        b.app.mode,
+        Mode::CalStatic(_) | Mode::CalSpinUp(_)
+    ));
+}
+
+#[test]
+fn malformed_commands_are_answered_with_a_reason() {
+    use firmware::telemetry::{frame, reason, Command, Decoder, Telemetry, MAX_FRAME, MAX_PAYLOAD};
+    let mut b = navigating_board(19);
+    let send = |b: &mut Board, c: Command, seq: u16| {
+        let mut p = [0u8; MAX_PAYLOAD];
+        let n = c.payload(seq, &mut p).unwrap();
+        let mut f = [0u8; MAX_FRAME];
+        let m = frame(&p[..n], &mut f).unwrap();
+        let t = b.t_us;
+        b.app.on_rx(t, &f[..m]);
+    };
+    b.frames.clear();
+    send(
+        &mut b,
+        Command::SetScheme {
+            kind: 1,
+            rate_dps: 900.0,
+            count: 0,
+        },
+        7,
+    );
+    send(&mut b, Command::Stop, 8);
+    b.app.on_rx(b.t_us, &[0x11, 0x22, 0x00]); // garbage frame
+    b.run(0.05);
+    let mut d = Decoder::default();
+    let mut out = [0u8; MAX_PAYLOAD + 2];
+    let mut acks: Vec<(u16, u8)> = vec![];
+    for x in &b.frames {
+        if let Some(n) = d.push(*x, &mut out) {
+            if let Ok((_, Telemetry::Ack { seq, status })) = Telemetry::parse(&out[..n]) {
+                acks.push((seq, status));
+            }
+        }
+    }
+    assert_eq!(acks, vec![(7, reason::BAD_RATE), (8, 0)]);
+    assert_eq!(b.app.duty(), 0.0, "stopped on command");
+    assert_eq!(b.app.faults.get(Fault::BadCommand), 1);
 }
