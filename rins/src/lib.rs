@@ -6,6 +6,7 @@ pub mod allan;
 pub mod calibrate;
 pub mod nav;
 pub mod plot;
+pub mod record;
 pub mod report;
 pub mod reproduce;
 

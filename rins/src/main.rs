@@ -53,6 +53,8 @@ enum Command {
     Allan(commands::AllanArgs),
     /// The paper's experiment in simulation, beside our best and the noise floor.
     Reproduce(commands::ReproduceArgs),
+    /// Decode the board's telemetry (a serial port or a captured file) into a recording.
+    Record(commands::RecordArgs),
     /// The main job: the board's run simulated, calibrated and navigated
     /// against a conventional twin; a short table and plots.
     Demo(commands::DemoArgs),
@@ -74,6 +76,7 @@ fn main() -> Result<()> {
         Command::Allan(a) => commands::allan(&a),
         Command::Reproduce(a) => commands::reproduce(&a),
         Command::Demo(a) => commands::demo(&a),
+        Command::Record(a) => commands::record(&a),
     }
 }
 

@@ -1,0 +1,115 @@
+//! `rins record`: the board's telemetry (framed: COBS, CRC-16, sequence
+//! numbers; `firmware::telemetry`) decoded into a recording
+//! (`rins-recording/1`), with the link's losses counted.
+//!
+//! IMU frames carry the board's 10 ms means (its rate loop reads the IMU at
+//! 1 kHz): the recording says so (`[imu] sample = "average"`) and its
+//! times are the ends of the intervals. Encoder frames carry the unwrapped
+//! count; the angle is `count x 2 pi / counts_per_rev`.
+
+use firmware::telemetry::{Decoder, LinkStats, Telemetry, MAX_PAYLOAD};
+use hal_sim::recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
+
+/// What came over the link besides the samples.
+#[derive(Clone, Debug, Default)]
+pub struct Decoded {
+    /// The samples as a recording.
+    pub recording: Recording,
+    /// Frames decoded, corrupt, overflowing, lost.
+    pub stats: LinkStats,
+    /// Rows dropped because their time did not increase (a board reset).
+    pub out_of_order: u64,
+    /// Navigation states: (t_us, p_n).
+    pub nav: Vec<(u64, [f32; 3])>,
+    /// Calibration results: (bias, M k, status).
+    pub calibrations: Vec<([f32; 3], [f32; 3], u8)>,
+    /// Faults: (t_us, code, count).
+    pub faults: Vec<(u64, u8, u32)>,
+}
+
+/// Decodes a byte stream; `meta` is what the recording is told about the
+/// site, the base and the table (the board does not send it).
+pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
+    let mut d = Decoder::default();
+    let mut out = [0u8; MAX_PAYLOAD + 2];
+    let mut r = Decoded {
+        recording: Recording {
+            meta: Meta {
+                imu_sample: SampleKind::Average,
+                ..meta
+            },
+            imu: vec![],
+            table: vec![],
+        },
+        ..Decoded::default()
+    };
+    for b in bytes {
+        let Some(n) = d.push(b, &mut out) else {
+            continue;
+        };
+        let Ok((_, t)) = Telemetry::parse(&out[..n]) else {
+            d.count_corrupt();
+            continue;
+        };
+        match t {
+            Telemetry::Imu {
+                t_us,
+                gyro_radps,
+                accel_mps2,
+                temp_c,
+            } => {
+                let t_s = t_us as f64 * 1e-6;
+                if r.recording.imu.last().is_some_and(|x| x.t_s >= t_s) {
+                    r.out_of_order += 1;
+                    continue;
+                }
+                r.recording.imu.push(ImuRow {
+                    t_s,
+                    gyro_radps: gyro_radps.map(f64::from),
+                    accel_mps2: accel_mps2.map(f64::from),
+                    temp_c: Some(f64::from(temp_c)),
+                });
+            }
+            Telemetry::Encoder {
+                t_us,
+                counts,
+                counts_per_rev,
+            } => {
+                let t_s = t_us as f64 * 1e-6;
+                if r.recording.table.last().is_some_and(|x| x.t_s >= t_s) || counts_per_rev == 0 {
+                    r.out_of_order += 1;
+                    continue;
+                }
+                let angle_rad = counts as f64 * core::f64::consts::TAU / f64::from(counts_per_rev);
+                r.recording.table.push(TableRow { t_s, angle_rad });
+            }
+            Telemetry::Nav { t_us, p_n, .. } => r.nav.push((t_us, p_n)),
+            Telemetry::Calibration {
+                bias_radps,
+                m_k,
+                status,
+            } => r.calibrations.push((bias_radps, m_k, status)),
+            Telemetry::Fault { t_us, code, count } => r.faults.push((t_us, code, count)),
+            Telemetry::Ack { .. } => {}
+        }
+    }
+    r.stats = d.stats;
+    r
+}
+
+/// A one-line account of the link.
+pub fn link_report(d: &Decoded) -> String {
+    let s = &d.stats;
+    format!(
+        "{} frames: {} IMU samples, {} encoder reads, {} nav states, {} faults; lost {}, corrupt {}, overflowing {}, out of order {}",
+        s.frames,
+        d.recording.imu.len(),
+        d.recording.table.len(),
+        d.nav.len(),
+        d.faults.len(),
+        s.lost,
+        s.corrupt,
+        s.overflow,
+        d.out_of_order
+    )
+}
