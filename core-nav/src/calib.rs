@@ -39,8 +39,9 @@ use crate::real::Real;
 use crate::table::{Axis, TableAngle};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 
-/// Most one-second blocks a static phase checks for bumps.
-pub const MAX_BLOCKS: usize = 256;
+/// Most one-second blocks a static phase checks for bumps (a static phase
+/// of up to 128 s is checked whole; longer ones in their first 128 s).
+pub const MAX_BLOCKS: usize = 128;
 /// A turn counts as whole within this angle (encoder quantisation and the
 /// servo's end error of a move), rad: 0.1 deg leaves 3e-4 of a turn's
 /// earth rate unaveraged, below 0.01 deg/h.
@@ -175,8 +176,10 @@ pub struct PhaseAccumulator {
     at_turn: Sums,
     turns_done: i64,
     start_angle: Option<TableAngle<f64>>,
-    blocks: [Vector3<f64>; MAX_BLOCKS],
-    blocks2: [Vector3<f64>; MAX_BLOCKS],
+    /// Per-block sums of `w - w_first` and its square, f32 (relative to the
+    /// first sample, so the variance does not cancel: 3 KiB instead of 12).
+    blocks: [Vector3<f32>; MAX_BLOCKS],
+    blocks2: [Vector3<f32>; MAX_BLOCKS],
     block_n: [u32; MAX_BLOCKS],
     block_len_us: u64,
 }
@@ -238,8 +241,9 @@ impl PhaseAccumulator {
             self.blocks2.get_mut(k),
             self.block_n.get_mut(k),
         ) {
-            *b += w;
-            *b2 += w.component_mul(&w);
+            let d = (w - self.total.w_first).map(|x| x as f32);
+            *b += d;
+            *b2 += d.component_mul(&d);
             *n += 1;
         }
         Ok(())
@@ -335,7 +339,7 @@ impl PhaseAccumulator {
                 if *cnt < 10 {
                     continue;
                 }
-                let bm = b / f64::from(*cnt);
+                let bm = b.map(f64::from) / f64::from(*cnt) + self.total.w_first;
                 let sigma = arw / libm::sqrt(f64::from(*cnt) * dt_s);
                 for i in 0..3 {
                     let (d, sg) = match (bm.get(i), mean_w.get(i), sigma.get(i)) {
@@ -372,8 +376,8 @@ impl PhaseAccumulator {
                     continue;
                 }
                 let c = f64::from(*cnt);
-                let m = b / c;
-                let v = (b2 / c - m.component_mul(&m)).map(|x| x.max(0.0));
+                let m = b.map(f64::from) / c;
+                let v = (b2.map(f64::from) / c - m.component_mul(&m)).map(|x| x.max(0.0));
                 if let Some(slot) = rms.get_mut(used) {
                     *slot = libm::sqrt(v.max());
                     used += 1;

@@ -1,10 +1,10 @@
-//! rins firmware (RTIC 2, STM32F405).
+//! rins firmware (RTIC 2, STM32F405): wires the board's peripherals to the
+//! logic in the `firmware` library (`App`), which is tested on the host.
 //!
-//! This is the first skeleton: the scheduler runs a 100 Hz navigation task
-//! that integrates a level, static sample through `core-nav` in f32 and logs
-//! the state every 10 s over defmt. The IMU driver, encoder, table control,
-//! calibration and telemetry arrive with the firmware issue; the clock tree
-//! is left at reset (HSI 16 MHz) until then.
+//! Tasks: a 1 kHz tick (IMU read, rate loop, encoder at 50 Hz, watchdog at
+//! 10 Hz, PWM + direction); `idle` drains telemetry to the UART, reads
+//! commands and writes the calibration record to flash (an erase blocks for
+//! about a second: never in the control loop).
 
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -20,92 +20,234 @@ use defmt_rtt as _;
 #[cfg(target_os = "none")]
 use panic_probe as _;
 
+/// The board: every pin in one place (Adafruit Feather STM32F405 Express,
+/// or any STM32F405/F407 board with a 12 MHz crystal).
+///
+/// | signal | pin | peripheral |
+/// | --- | --- | --- |
+/// | IMU SCK / MISO / MOSI | PA5 / PA6 / PA7 | SPI1, mode 0, 8 MHz |
+/// | IMU chip select | PA4 | GPIO, active low |
+/// | encoder A / B | PB6 / PB7 | TIM4 quadrature (16-bit counter) |
+/// | motor PWM | PA8 | TIM1 CH1, 20 kHz |
+/// | motor direction | PC6 | GPIO (high = positive rotation) |
+/// | telemetry TX / RX | PA9 / PA10 | USART1, 921,600 baud |
 #[cfg(target_os = "none")]
-#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART1])]
+mod board {
+    /// Crystal, Hz.
+    pub const HSE_HZ: u32 = 12_000_000;
+    /// System clock, Hz.
+    pub const SYSCLK_HZ: u32 = 168_000_000;
+    /// Telemetry baud rate.
+    pub const BAUD: u32 = 921_600;
+    /// Flash sector holding the calibration record (sector 11: 0x080E_0000,
+    /// 128 KiB; the program must stay below it).
+    pub const CAL_SECTOR: u8 = 11;
+    /// Its offset from the start of flash.
+    pub const CAL_OFFSET: usize = 0xE_0000;
+}
+
+#[cfg(target_os = "none")]
+#[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART2])]
 mod app {
-    use core_nav::earth::GeoPoint;
-    use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig};
-    use nalgebra::{Quaternion, Vector3};
+    use crate::board;
+    use embedded_hal::delay::DelayNs;
+    use embedded_hal_02::Qei as _;
+    use embedded_hal_bus::spi::ExclusiveDevice;
+    use firmware::app::{App, AppConfig, CAL_RECORD};
+    use firmware::icm42688::{Config, Icm42688};
     use rtic_monotonics::systick::prelude::*;
+    use stm32f4xx_hal::flash::FlashExt;
+    use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
+    use stm32f4xx_hal::pac::{FLASH, SPI1, TIM1, TIM4, USART1};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::qei::Qei;
+    use stm32f4xx_hal::rcc::Config as RccConfig;
+    use stm32f4xx_hal::serial::{Rx, Tx};
+    use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+    use stm32f4xx_hal::timer::PwmChannel;
 
-    /// HSI after reset, Hz.
-    const SYSCLK_HZ: u32 = 16_000_000;
-    /// IMU period, µs (100 Hz).
-    const IMU_PERIOD_US: u64 = 10_000;
+    systick_monotonic!(Mono, 1_000);
 
-    systick_monotonic!(Mono, 10_000);
+    type ImuSpi = ExclusiveDevice<Spi<SPI1>, PA4<Output<PushPull>>, embedded_hal_bus::spi::NoDelay>;
+
+    /// A busy-wait delay for the IMU's start-up (before the scheduler runs).
+    struct CycleDelay;
+    impl DelayNs for CycleDelay {
+        fn delay_ns(&mut self, ns: u32) {
+            cortex_m::asm::delay(
+                (u64::from(ns) * u64::from(board::SYSCLK_HZ / 1_000_000) / 1_000) as u32,
+            );
+        }
+    }
 
     #[shared]
-    struct Shared {}
+    struct Shared {
+        app: App,
+    }
 
     #[local]
     struct Local {
-        nav: Option<Strapdown<f32>>,
+        imu: Option<Icm42688<ImuSpi>>,
+        qei: Qei<TIM4>,
+        pwm: PwmChannel<TIM1, 0>,
+        dir: PC6<Output<PushPull>>,
+        tx: Tx<USART1>,
+        rx: Rx<USART1>,
+        flash: FLASH,
     }
 
     #[init]
     fn init(cx: init::Context) -> (Shared, Local) {
-        Mono::start(cx.core.SYST, SYSCLK_HZ);
-        let first = level_sample(0);
-        let nav = Strapdown::new(
-            StrapdownConfig::default(),
-            GeoPoint::from_deg(30.53, 114.36, 20.0),
-            Vector3::zeros(),
-            Quaternion::identity(),
-            &first,
+        let dp = cx.device;
+        let mut rcc = dp
+            .RCC
+            .freeze(RccConfig::hse(board::HSE_HZ.Hz()).sysclk(board::SYSCLK_HZ.Hz()));
+        Mono::start(cx.core.SYST, board::SYSCLK_HZ);
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+
+        let mode = Mode {
+            polarity: Polarity::IdleLow,
+            phase: Phase::CaptureOnFirstTransition,
+        };
+        let spi = dp.SPI1.spi(
+            (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
+            mode,
+            8.MHz(),
+            &mut rcc,
+        );
+        let cs = gpioa
+            .pa4
+            .into_push_pull_output_in_state(stm32f4xx_hal::gpio::PinState::High);
+        let imu = ExclusiveDevice::new_no_delay(spi, cs)
+            .ok()
+            .map(Icm42688::new)
+            .and_then(|mut imu| {
+                match imu.init(Config::default(), &mut CycleDelay) {
+                    Ok(()) => Some(imu),
+                    Err(_) => {
+                        // Safe state: no IMU, no navigation, the motor never runs.
+                        defmt::error!("IMU init failed (wrong WHO_AM_I or SPI)");
+                        None
+                    }
+                }
+            });
+        let qei = Qei::new(dp.TIM4, (gpiob.pb6, gpiob.pb7), &mut rcc);
+        let (_, (ch1, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
+        let mut pwm = ch1.with(gpioa.pa8);
+        pwm.set_duty(0);
+        pwm.enable();
+        let dir = gpioc.pc6.into_push_pull_output();
+        let serial = dp
+            .USART1
+            .serial((gpioa.pa9, gpioa.pa10), board::BAUD.bps(), &mut rcc);
+        let (tx, rx) = match serial {
+            Ok(s) => s.split(),
+            Err(_) => defmt::panic!("USART1 configuration"), // init only: a board that cannot talk is broken
+        };
+        let app = match App::new(AppConfig::default()) {
+            Ok(a) => a,
+            Err(_) => defmt::panic!("default configuration out of range"), // init only: a build error
+        };
+        if imu.is_some() && tick::spawn().is_err() {
+            defmt::error!("tick already running");
+        }
+        (
+            Shared { app },
+            Local {
+                imu,
+                qei,
+                pwm,
+                dir,
+                tx,
+                rx,
+                flash: dp.FLASH,
+            },
         )
-        .ok();
-        if nav.is_none() {
-            defmt::error!("navigation could not start");
-        }
-        if nav_task::spawn().is_err() {
-            defmt::error!("nav task already running");
-        }
-        (Shared {}, Local { nav })
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
-        loop {
-            cortex_m::asm::wfi();
-        }
-    }
-
-    /// A level, static, north-facing IMU at the default site (gyro bias-free,
-    /// earth rate neglected): a placeholder source until the IMU driver lands.
-    fn level_sample(t_us: u64) -> ImuSample<f32> {
-        ImuSample {
-            t_us,
-            w_is_s: Vector3::zeros(),
-            f_s: Vector3::new(0.0, 0.0, -9.7936),
-        }
-    }
-
-    #[task(local = [nav, k: u64 = 0, faults: u32 = 0], priority = 1)]
-    async fn nav_task(cx: nav_task::Context) {
+    /// 1 kHz: the IMU, the rate loop, the encoder at 50 Hz, the watchdog.
+    #[task(priority = 2, shared = [app], local = [imu, qei, pwm, dir, k: u32 = 0])]
+    async fn tick(mut cx: tick::Context) {
         let mut next = Mono::now();
         loop {
-            *cx.local.k += 1;
-            let t_us = *cx.local.k * IMU_PERIOD_US;
-            if let Some(nav) = cx.local.nav.as_mut() {
-                match nav.step(&level_sample(t_us)) {
-                    Ok(s) => {
-                        if cx.local.k.is_multiple_of(1000) {
-                            defmt::info!(
-                                "t={}s N={}m E={}m D={}m faults={}",
-                                t_us / 1_000_000,
-                                s.p_n.x,
-                                s.p_n.y,
-                                s.p_n.z,
-                                *cx.local.faults
-                            );
-                        }
+            // Two fugit versions: name the trait (toolchain notes).
+            next += rtic_monotonics::fugit::ExtU32::millis(1u32);
+            Mono::delay_until(next).await;
+            let t_us = u64::from(Mono::now().duration_since_epoch().as_millis()) * 1_000;
+            *cx.local.k = cx.local.k.wrapping_add(1);
+            let k = *cx.local.k;
+            let sample = cx.local.imu.as_mut().map(|imu| imu.read_si());
+            let encoder = k.is_multiple_of(20).then(|| cx.local.qei.count()); // TIM4: a 16-bit counter
+            let duty = cx.shared.app.lock(|app| {
+                match sample {
+                    Some(Ok((raw, s))) => app.on_imu(t_us, &raw, &s),
+                    _ => app.on_imu_error(t_us),
+                }
+                if let Some(hw) = encoder {
+                    app.on_encoder(t_us, hw);
+                }
+                if k.is_multiple_of(100) {
+                    app.check_watchdog(t_us);
+                }
+                app.duty()
+            });
+            let max = cx.local.pwm.get_max_duty();
+            cx.local.pwm.set_duty((duty.abs() * f32::from(max)) as u16);
+            if duty >= 0.0 {
+                cx.local.dir.set_high();
+            } else {
+                cx.local.dir.set_low();
+            }
+        }
+    }
+
+    /// Telemetry out, commands in, the calibration record to flash.
+    #[idle(shared = [app], local = [tx, rx, flash, written: Option<[u8; CAL_RECORD]> = None])]
+    fn idle(mut cx: idle::Context) -> ! {
+        let mut frames = [[0u8; firmware::telemetry::MAX_FRAME]; 8];
+        let mut lens = [0usize; 8];
+        loop {
+            let mut n = 0;
+            let stored = cx.shared.app.lock(|app| {
+                app.drain(|f| {
+                    if let (Some(dst), Some(len)) = (frames.get_mut(n), lens.get_mut(n)) {
+                        let m = f.len().min(dst.len());
+                        dst[..m].copy_from_slice(&f[..m]);
+                        *len = m;
+                        n += 1;
                     }
-                    Err(_) => *cx.local.faults += 1,
+                });
+                app.stored
+            });
+            for (f, len) in frames.iter().zip(lens.iter()).take(n) {
+                for b in &f[..*len] {
+                    if nb::block!(cx.local.tx.write(*b)).is_err() {
+                        defmt::warn!("uart write");
+                    }
                 }
             }
-            next += 10u32.millis();
-            Mono::delay_until(next).await;
+            while let Ok(b) = cx.local.rx.read() {
+                let t_us = u64::from(Mono::now().duration_since_epoch().as_millis()) * 1_000;
+                cx.shared.app.lock(|app| app.on_rx(t_us, &[b]));
+            }
+            if let Some(rec) = stored {
+                if *cx.local.written != Some(rec) {
+                    let mut fl = cx.local.flash.unlocked();
+                    let ok = fl.erase(board::CAL_SECTOR).is_ok()
+                        && fl.program(board::CAL_OFFSET, rec.iter()).is_ok();
+                    if ok {
+                        defmt::info!("calibration stored in flash");
+                    } else {
+                        defmt::error!("calibration: flash write failed");
+                    }
+                    *cx.local.written = Some(rec);
+                }
+            }
+            if n == 0 {
+                cortex_m::asm::wfi();
+            }
         }
     }
 }
