@@ -26,4 +26,5 @@ pub mod app;
 pub mod control;
 pub mod faults;
 pub mod icm42688;
+pub mod replay;
 pub mod telemetry;

@@ -556,3 +556,89 @@ pub fn record(a: &RecordArgs) -> Result<()> {
     }
     Ok(())
 }
+
+/// `rins qemu-replay`.
+#[derive(clap::Args)]
+pub struct QemuReplayArgs {
+    /// The recording to replay (from `rins simulate`).
+    pub rec: PathBuf,
+    /// Output: the binary replay stream for the QEMU build.
+    pub out: PathBuf,
+    /// Encoder counts per revolution (the board's).
+    #[arg(long, default_value_t = 16_384)]
+    pub counts_per_rev: u32,
+}
+
+/// Runs `rins qemu-replay`: the recording as the board's input stream, run
+/// through the board's logic on the host; the host's outcome goes in the
+/// trailer for the QEMU build to compare with, bit for bit.
+pub fn qemu_replay(a: &QemuReplayArgs) -> Result<()> {
+    use firmware::replay::{encode, encode_outcome, outcome, step, Event, Header, HEADER, RECORD};
+    let rec = read_recording(&a.rec)?;
+    let m = &rec.meta;
+    let rate = match rec
+        .table
+        .windows(2)
+        .rev()
+        .find(|w| w[1].angle_rad != w[0].angle_rad)
+    {
+        Some(w) => (w[1].angle_rad - w[0].angle_rad) / (w[1].t_s - w[0].t_s),
+        None => bail!("the table never turns: the board's calibration needs rotation"),
+    };
+    let mut header = Header {
+        records: 0,
+        lat_deg: m.latitude_deg,
+        height_m: m.height_m,
+        base_deg: [m.roll_deg, m.pitch_deg, m.heading_deg],
+        rate_radps: (rate.to_degrees() * 10.0).round().to_radians() / 10.0,
+        counts_per_rev: a.counts_per_rev,
+    };
+    let cfg = header.config();
+    let mut events: Vec<Event> = rec
+        .imu
+        .iter()
+        .map(|r| Event::Imu {
+            t_us: (r.t_s * 1e6).round() as u64,
+            gyro: r.gyro_radps.map(|x| x as f32),
+            accel: r.accel_mps2.map(|x| x as f32),
+            temp: r.temp_c.unwrap_or(25.0) as f32,
+        })
+        .chain(rec.table.iter().map(|r| {
+            Event::Encoder {
+                t_us: (r.t_s * 1e6).round() as u64,
+                hw: ((r.angle_rad / core::f64::consts::TAU * f64::from(a.counts_per_rev)).round()
+                    as i64)
+                    .rem_euclid(65_536) as u16,
+            }
+        }))
+        .collect();
+    // Encoder before IMU at the same time (the board reads it first).
+    events.sort_by_key(|e| match e {
+        Event::Imu { t_us, .. } => (*t_us, 1),
+        Event::Encoder { t_us, .. } => (*t_us, 0),
+    });
+    let mut app = firmware::app::App::new(cfg).map_err(|e| anyhow!("{e:?}"))?;
+    let mut bytes = Vec::with_capacity(HEADER + events.len() * RECORD + 32);
+    header.records = events.len() as u32;
+    bytes.extend_from_slice(&header.encode());
+    for e in &events {
+        step(&mut app, e);
+        bytes.extend_from_slice(&encode(e));
+    }
+    let o = outcome(&app);
+    bytes.extend_from_slice(&encode_outcome(&o));
+    write_file(&a.out, "")?;
+    std::fs::write(&a.out, &bytes).with_context(|| format!("writing {}", a.out.display()))?;
+    println!(
+        "{} events -> {}; host: mode {:?}, p_n {:?} m, v_n {:?} m/s",
+        events.len(),
+        a.out.display(),
+        app.mode,
+        o.p_n,
+        o.v_n
+    );
+    if o.mode != 3 {
+        bail!("the board's logic did not reach navigation on this recording (mode {:?}, last refusal {:?})", app.mode, app.last_refusal);
+    }
+    Ok(())
+}

@@ -53,6 +53,8 @@ enum Command {
     Allan(commands::AllanArgs),
     /// The paper's experiment in simulation, beside our best and the noise floor.
     Reproduce(commands::ReproduceArgs),
+    /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
+    QemuReplay(commands::QemuReplayArgs),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
     Record(commands::RecordArgs),
     /// The main job: the board's run simulated, calibrated and navigated
@@ -77,6 +79,7 @@ fn main() -> Result<()> {
         Command::Reproduce(a) => commands::reproduce(&a),
         Command::Demo(a) => commands::demo(&a),
         Command::Record(a) => commands::record(&a),
+        Command::QemuReplay(a) => commands::qemu_replay(&a),
     }
 }
 
