@@ -65,6 +65,7 @@ mod app {
     use stm32f4xx_hal::serial::{Rx, Tx};
     use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
     use stm32f4xx_hal::timer::PwmChannel;
+    use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
     systick_monotonic!(Mono, 1_000);
 
@@ -88,6 +89,7 @@ mod app {
     #[local]
     struct Local {
         imu: Option<Icm42688<ImuSpi>>,
+        wdg: IndependentWatchdog,
         qei: Qei<TIM4>,
         pwm: PwmChannel<TIM1, 0>,
         dir: PC6<Output<PushPull>>,
@@ -150,6 +152,10 @@ mod app {
             Ok(a) => a,
             Err(_) => defmt::panic!("default configuration out of range"), // init only: a build error
         };
+        // The hardware watchdog: the tick task feeds it every 1 ms; if the
+        // scheduler stalls for 100 ms the chip resets (motor PWM off at reset).
+        let mut wdg = IndependentWatchdog::new(dp.IWDG);
+        wdg.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(100u32));
         if imu.is_some() && tick::spawn().is_err() {
             defmt::error!("tick already running");
         }
@@ -157,6 +163,7 @@ mod app {
             Shared { app },
             Local {
                 imu,
+                wdg,
                 qei,
                 pwm,
                 dir,
@@ -168,13 +175,14 @@ mod app {
     }
 
     /// 1 kHz: the IMU, the rate loop, the encoder at 50 Hz, the watchdog.
-    #[task(priority = 2, shared = [app], local = [imu, qei, pwm, dir, k: u32 = 0])]
+    #[task(priority = 2, shared = [app], local = [imu, wdg, qei, pwm, dir, k: u32 = 0])]
     async fn tick(mut cx: tick::Context) {
         let mut next = Mono::now();
         loop {
             // Two fugit versions: name the trait (toolchain notes).
             next += rtic_monotonics::fugit::ExtU32::millis(1u32);
             Mono::delay_until(next).await;
+            cx.local.wdg.feed();
             let t_us = u64::from(Mono::now().duration_since_epoch().as_millis()) * 1_000;
             *cx.local.k = cx.local.k.wrapping_add(1);
             let k = *cx.local.k;
