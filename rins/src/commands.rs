@@ -642,3 +642,91 @@ pub fn qemu_replay(a: &QemuReplayArgs) -> Result<()> {
     }
     Ok(())
 }
+
+/// `rins diagnose`.
+#[derive(clap::Args)]
+pub struct DiagnoseArgs {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// The nominal model (TOML); default: the spec's (gravity, earth rate,
+    /// table motion, bias, scale, misalignment, white noise).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Write the rins-diagnose/1 JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Runs `rins diagnose`.
+pub fn diagnose(a: &DiagnoseArgs) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    if let Some(m) = &a.model {
+        let text =
+            std::fs::read_to_string(m).with_context(|| format!("reading {}", m.display()))?;
+        let model = toml_model::parse(&text).with_context(|| format!("{}", m.display()))?;
+        if !model.contains.is_empty() {
+            println!("nominal model also contains: {}", model.contains.join(", "));
+        }
+    }
+    let pb = progress_bar("diagnose");
+    let report = rins::diagnose::diagnose(&rec, &a.rec.display().to_string());
+    pb.finish_and_clear();
+    let findings = report["findings"].as_array().cloned().unwrap_or_default();
+    println!(
+        "{}: nominal model fitted (bias, scale, misalignment); {} finding(s)",
+        a.rec.display(),
+        findings.len()
+    );
+    for f in &findings {
+        println!(
+            "- {} on {}: {} ({}); delta BIC {:.0}, SNR {:.1}; parameters {}",
+            f["effect"].as_str().unwrap_or(""),
+            f["channels"]
+                .as_array()
+                .map(|c| c
+                    .iter()
+                    .filter_map(|x| x.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "))
+                .unwrap_or_default(),
+            f["explanation"].as_str().unwrap_or(""),
+            f["where"].as_str().unwrap_or(""),
+            f["significance"]["delta_bic"].as_f64().unwrap_or(0.0),
+            f["significance"]["snr"].as_f64().unwrap_or(0.0),
+            f["parameters"]
+        );
+    }
+    if findings.is_empty() {
+        println!("the nominal model explains the recording down to its noise");
+    }
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&report)?)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// The `--model` file: which effects the nominal model already contains.
+mod toml_model {
+    /// The model (only what this version reads).
+    #[derive(Debug, Default)]
+    pub struct Model {
+        /// Effects the nominal model contains beyond the spec's.
+        pub contains: Vec<String>,
+    }
+
+    /// Parses `contains = ["effect_id", ...]` (unknown keys are ignored).
+    pub fn parse(text: &str) -> anyhow::Result<Model> {
+        let t: toml::Table = text.parse()?;
+        let contains = t
+            .get("contains")
+            .and_then(|v| v.as_array())
+            .map(|a| {
+                a.iter()
+                    .filter_map(|x| x.as_str().map(str::to_string))
+                    .collect()
+            })
+            .unwrap_or_default();
+        Ok(Model { contains })
+    }
+}

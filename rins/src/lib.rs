@@ -4,6 +4,7 @@
 
 pub mod allan;
 pub mod calibrate;
+pub mod diagnose;
 pub mod nav;
 pub mod plot;
 pub mod record;

@@ -53,6 +53,8 @@ enum Command {
     Allan(commands::AllanArgs),
     /// The paper's experiment in simulation, beside our best and the noise floor.
     Reproduce(commands::ReproduceArgs),
+    /// Find the physics a recording shows that the nominal model left out.
+    Diagnose(commands::DiagnoseArgs),
     /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
     QemuReplay(commands::QemuReplayArgs),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
@@ -80,6 +82,7 @@ fn main() -> Result<()> {
         Command::Demo(a) => commands::demo(&a),
         Command::Record(a) => commands::record(&a),
         Command::QemuReplay(a) => commands::qemu_replay(&a),
+        Command::Diagnose(a) => commands::diagnose(&a),
     }
 }
 
