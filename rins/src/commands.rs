@@ -730,3 +730,43 @@ mod toml_model {
         Ok(Model { contains })
     }
 }
+
+/// `rins study`.
+#[derive(clap::Args)]
+pub struct StudyArgs {
+    /// Seeds per cell (nulls: twice as many).
+    #[arg(long, default_value_t = 5)]
+    pub runs: usize,
+    /// First seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Write the JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the Markdown table here.
+    #[arg(long)]
+    pub markdown: Option<PathBuf>,
+}
+
+/// Runs `rins study`.
+pub fn study(a: &StudyArgs) -> Result<()> {
+    let pb = progress_bar("study");
+    let s = rins::study::run(
+        rins::study::EFFECTS,
+        &rins::study::SCALES,
+        a.runs,
+        a.seed,
+        &mut |f| pb.set_position((f * 1000.0) as u64),
+    )
+    .map_err(|e| anyhow!(e))?;
+    pb.finish_and_clear();
+    let md = rins::study::markdown(&s, &rins::study::SCALES);
+    print!("{md}");
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&s)?)?;
+    }
+    if let Some(p) = &a.markdown {
+        write_file(p, &md)?;
+    }
+    Ok(())
+}

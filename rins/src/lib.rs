@@ -10,6 +10,7 @@ pub mod plot;
 pub mod record;
 pub mod report;
 pub mod reproduce;
+pub mod study;
 
 /// A progress bar for a job measured in fractions (hidden when not a terminal).
 pub fn progress_bar(what: &str) -> indicatif::ProgressBar {

@@ -55,6 +55,8 @@ enum Command {
     Reproduce(commands::ReproduceArgs),
     /// Find the physics a recording shows that the nominal model left out.
     Diagnose(commands::DiagnoseArgs),
+    /// The blind study of `diagnose`: hidden effects at several magnitudes, nulls.
+    Study(commands::StudyArgs),
     /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
     QemuReplay(commands::QemuReplayArgs),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
@@ -83,6 +85,7 @@ fn main() -> Result<()> {
         Command::Record(a) => commands::record(&a),
         Command::QemuReplay(a) => commands::qemu_replay(&a),
         Command::Diagnose(a) => commands::diagnose(&a),
+        Command::Study(a) => commands::study(&a),
     }
 }
 

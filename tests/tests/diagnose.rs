@@ -135,3 +135,16 @@ fn adis16405_bench_hour_shows_bias_instability() {
         );
     }
 }
+
+#[test]
+fn blind_study_runs_and_scores() {
+    // A small study: one strong effect at 4x, one seed, two nulls.
+    let s = rins::study::run(&[("lever_arm", 0.02)], &[4.0], 1, 5, &mut |_| {}).unwrap();
+    assert_eq!(s.cells.len(), 1);
+    assert_eq!((s.cells[0].detected, s.cells[0].first), (1, 1));
+    assert_eq!(s.null_runs, 2);
+    assert_eq!(s.confusion["lever_arm"]["lever_arm"], 1);
+    let md = rins::study::markdown(&s, &[4.0]);
+    assert!(md.contains("| lever_arm | 100 %"), "{md}");
+    assert!(serde_json::to_string(&s).unwrap().contains("false_alarms"));
+}
