@@ -34,7 +34,6 @@
 //! the firmware runs the same code; checks refuse a phase that is not static
 //! or a rate that was not reached, with the reason.
 
-use crate::error::NavError;
 use crate::real::Real;
 use crate::table::{Axis, TableAngle};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
@@ -110,12 +109,6 @@ impl core::fmt::Display for CalibError {
             Self::Degenerate => write!(f, "phase rates do not separate the unknowns"),
             Self::NonFinite => write!(f, "non-finite sample"),
         }
-    }
-}
-
-impl From<CalibError> for NavError {
-    fn from(_: CalibError) -> Self {
-        NavError::NotEnoughSamples
     }
 }
 

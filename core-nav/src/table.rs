@@ -5,7 +5,6 @@
 //! Frames (recording-v1): the table turns `s` relative to `b` about `k`
 //! (the same unit vector in `b` and `s`), `c_s_b = exp(theta [k x])`.
 
-use crate::attitude::DeltaQuat;
 use crate::error::NavError;
 use crate::real::{sin_cos, wrap_pi, Real};
 use nalgebra::{Quaternion, Vector3};
@@ -232,11 +231,6 @@ impl CounterUnwrapper {
     pub fn total(&self) -> i64 {
         self.total
     }
-}
-
-/// `1 + d` form of `q_s_b` for a small table angle step (used by tests).
-pub fn delta_s_b<T: Real>(axis: Axis, dtheta: T) -> DeltaQuat<T> {
-    crate::attitude::rotvec_to_delta(&(axis.unit::<T>() * dtheta))
 }
 
 #[cfg(test)]

@@ -1,6 +1,6 @@
 //! The processing commands: calibrate, navigate, allan, reproduce, demo.
 
-use crate::{join, progress_bar, read_recording, write_file};
+use crate::{progress_bar, read_recording, write_file};
 use anyhow::{anyhow, bail, Context, Result};
 use core_nav::calib::{Checks, GyroCalibration, PhaseAccumulator};
 use core_nav::scheme::Scheme;
@@ -114,11 +114,11 @@ pub fn navigate(a: &NavigateArgs) -> Result<()> {
     let rows = nav::navigate(&rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
     pb.finish_and_clear();
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
-    write_file(&join(&a.out, "trajectory.csv"), &nav::trajectory_csv(&rows))?;
+    write_file(&a.out.join("trajectory.csv"), &nav::trajectory_csv(&rows))?;
     let m = &rec.meta;
     let base = [m.roll_deg, m.pitch_deg, m.heading_deg];
     for (name, svg) in report::nav_charts(&[("run", &rows)], base) {
-        write_file(&join(&a.out, &name), &svg)?;
+        write_file(&a.out.join(&name), &svg)?;
     }
     let e = nav::static_errors(&rows, base);
     let faults = rows.last().map_or(0, |r| r.faults);
@@ -307,7 +307,7 @@ pub fn reproduce(a: &ReproduceArgs) -> Result<()> {
     }
     if let Some(d) = &a.plots {
         for (name, svg) in report::reproduce_charts(&rows, &a.imu) {
-            write_file(&join(d, &name), &svg)?;
+            write_file(&d.join(&name), &svg)?;
         }
         println!("plots in {}", d.display());
     }
@@ -430,25 +430,25 @@ pub fn demo(a: &DemoArgs) -> Result<()> {
     for (name, svg) in
         report::nav_charts(&[("conventional", &rows_conv), ("rotary", &rows_rot)], base)
     {
-        write_file(&join(&a.out, &name), &svg)?;
+        write_file(&a.out.join(&name), &svg)?;
     }
     write_file(
-        &join(&a.out, "trajectory_rotary.csv"),
+        &a.out.join("trajectory_rotary.csv"),
         &nav::trajectory_csv(&rows_rot),
     )?;
     write_file(
-        &join(&a.out, "trajectory_conventional.csv"),
+        &a.out.join("trajectory_conventional.csv"),
         &nav::trajectory_csv(&rows_conv),
     )?;
     write_file(
-        &join(&a.out, "calibration.json"),
+        &a.out.join("calibration.json"),
         &serde_json::to_string_pretty(&calibrate::to_json(&cal))?,
     )?;
     for (dir, rec) in [
         ("recording_rotary", &rot),
         ("recording_conventional", &conv),
     ] {
-        let d = join(&a.out, dir);
+        let d = a.out.join(dir);
         if d.exists() {
             std::fs::remove_dir_all(&d).with_context(|| format!("replacing {}", d.display()))?;
         }

@@ -41,6 +41,8 @@ pub struct Prediction {
     pub theta: Vec<(f64, f64, f64)>,
     /// Temperature change from the first sample, deg C.
     pub dtemp: Vec<f64>,
+    /// The table axis `k` (same in `b` and `s`).
+    pub k: Vector3<f64>,
     /// Measured samples: gyro (rad/s), accel (m/s^2).
     pub y_w: Vec<Vector3<f64>>,
     /// See `y_w`.
@@ -91,7 +93,10 @@ pub fn predict(rec: &Recording, earth_rate: bool) -> Prediction {
     let te: Vec<f64> = rec.table.iter().map(|r| r.t_s).collect();
     let ae: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
     let temp0 = rec.imu.first().and_then(|r| r.temp_c).unwrap_or(25.0);
-    let mut p = Prediction::default();
+    let mut p = Prediction {
+        k: k.into_inner(),
+        ..Prediction::default()
+    };
     let mut j = 0usize;
     for r in &rec.imu {
         while j + 1 < te.len() && te[j + 1] <= r.t_s {
@@ -189,17 +194,6 @@ struct Candidate {
     where_: &'static str,
 }
 
-fn axis_i(p: &Prediction) -> usize {
-    // The table axis is the sensor axis with the largest rate spread.
-    let spread = |i: usize| {
-        let m = p.w.iter().map(|w| w[i]).sum::<f64>() / p.w.len().max(1) as f64;
-        p.w.iter().map(|w| (w[i] - m).powi(2)).sum::<f64>()
-    };
-    (0..3)
-        .max_by(|a, b| spread(*a).total_cmp(&spread(*b)))
-        .unwrap_or(2)
-}
-
 fn deriv(v: &[Vector3<f64>], t: &[f64], r: usize, i: usize) -> f64 {
     let a = r.saturating_sub(1);
     let b = (r + 1).min(v.len() - 1);
@@ -239,7 +233,7 @@ const CANDIDATES: &[Candidate] = &[
         channels: &[3, 4, 5],
         cols: |p, ch, r| {
             // a = theta_ddot k x r + theta_dot^2 k x (k x r), linear in r.
-            let k = Vector3::new(0.0, 0.0, 1.0);
+            let k = p.k;
             let (_, w, a) = p.theta[r];
             (0..3)
                 .map(|j| {
@@ -443,7 +437,6 @@ pub fn diagnose(rec: &Recording, recording_name: &str) -> serde_json::Value {
     for (ch, name) in CHANNELS.iter().enumerate() {
         resid_rms.insert((*name).into(), rms(&nominal[ch]).into());
     }
-    let _table_axis = axis_i(&p);
     let mut chosen: Vec<&Candidate> = vec![];
     let mut findings: Vec<(f64, Finding)> = vec![];
     for _round in 0..5 {

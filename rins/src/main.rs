@@ -4,7 +4,7 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{Parser, Subcommand, ValueEnum};
 use hal_sim::recording::Recording;
 use rins::progress_bar;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 mod commands;
 mod simulate;
@@ -112,9 +112,4 @@ pub fn write_file(p: &Path, text: &str) -> Result<()> {
         std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
     }
     std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
-}
-
-/// Output path helper.
-pub fn join(dir: &Path, name: &str) -> PathBuf {
-    dir.join(name)
 }
