@@ -648,87 +648,54 @@ pub fn qemu_replay(a: &QemuReplayArgs) -> Result<()> {
 pub struct DiagnoseArgs {
     /// The recording directory.
     pub rec: PathBuf,
-    /// The nominal model (TOML); default: the spec's (gravity, earth rate,
-    /// table motion, bias, scale, misalignment, white noise).
+    /// The nominal model (TOML: `earth_rate = true|false`, `[known.<effect
+    /// id>]` tables of parameters the model already has); default: the
+    /// spec's (gravity, earth rate, table motion, bias, scale,
+    /// misalignment, white noise).
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Write the rins-diagnose/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the plots (SVG) into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Block length of the regression, s.
+    #[arg(long, default_value_t = 0.2)]
+    pub block_s: f64,
 }
 
 /// Runs `rins diagnose`.
 pub fn diagnose(a: &DiagnoseArgs) -> Result<()> {
     let rec = read_recording(&a.rec)?;
+    let mut opts = rins::diagnose::Options::default();
     if let Some(m) = &a.model {
         let text =
             std::fs::read_to_string(m).with_context(|| format!("reading {}", m.display()))?;
-        let model = toml_model::parse(&text).with_context(|| format!("{}", m.display()))?;
-        if !model.contains.is_empty() {
-            println!("nominal model also contains: {}", model.contains.join(", "));
+        opts.model =
+            rins::diagnose::Model::from_toml(&text).map_err(|e| anyhow!("{}: {e}", m.display()))?;
+    }
+    if !(a.block_s.is_finite() && a.block_s > 0.0) {
+        bail!("--block-s must be a positive number of seconds");
+    }
+    opts.block_s = a.block_s;
+    let pb = progress_bar("diagnose");
+    let name = a.rec.display().to_string();
+    let d = rins::diagnose::run(&rec, &name, &opts).map_err(|e| anyhow!("{name}: {e}"))?;
+    pb.finish_and_clear();
+    print!("{}", rins::diagnose::show::text(&d, &name));
+    if let Some(dir) = &a.plots {
+        for p in rins::diagnose::show::plots(&d, dir)
+            .with_context(|| format!("writing plots to {}", dir.display()))?
+        {
+            println!("wrote {}", p.display());
         }
     }
-    let pb = progress_bar("diagnose");
-    let report = rins::diagnose::diagnose(&rec, &a.rec.display().to_string());
-    pb.finish_and_clear();
-    let findings = report["findings"].as_array().cloned().unwrap_or_default();
-    println!(
-        "{}: nominal model fitted (bias, scale, misalignment); {} finding(s)",
-        a.rec.display(),
-        findings.len()
-    );
-    for f in &findings {
-        println!(
-            "- {} on {}: {} ({}); delta BIC {:.0}, SNR {:.1}; parameters {}",
-            f["effect"].as_str().unwrap_or(""),
-            f["channels"]
-                .as_array()
-                .map(|c| c
-                    .iter()
-                    .filter_map(|x| x.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", "))
-                .unwrap_or_default(),
-            f["explanation"].as_str().unwrap_or(""),
-            f["where"].as_str().unwrap_or(""),
-            f["significance"]["delta_bic"].as_f64().unwrap_or(0.0),
-            f["significance"]["snr"].as_f64().unwrap_or(0.0),
-            f["parameters"]
-        );
-    }
-    if findings.is_empty() {
-        println!("the nominal model explains the recording down to its noise");
-    }
     if let Some(p) = &a.json {
-        write_file(p, &serde_json::to_string_pretty(&report)?)?;
+        write_file(p, &serde_json::to_string_pretty(&d.json)?)?;
         println!("wrote {}", p.display());
     }
     Ok(())
-}
-
-/// The `--model` file: which effects the nominal model already contains.
-mod toml_model {
-    /// The model (only what this version reads).
-    #[derive(Debug, Default)]
-    pub struct Model {
-        /// Effects the nominal model contains beyond the spec's.
-        pub contains: Vec<String>,
-    }
-
-    /// Parses `contains = ["effect_id", ...]` (unknown keys are ignored).
-    pub fn parse(text: &str) -> anyhow::Result<Model> {
-        let t: toml::Table = text.parse()?;
-        let contains = t
-            .get("contains")
-            .and_then(|v| v.as_array())
-            .map(|a| {
-                a.iter()
-                    .filter_map(|x| x.as_str().map(str::to_string))
-                    .collect()
-            })
-            .unwrap_or_default();
-        Ok(Model { contains })
-    }
 }
 
 /// `rins study`.

@@ -1,0 +1,380 @@
+//! The library of candidate physics: every effect id of
+//! `shared/spec/diagnose-v1.md` as regressors on the prediction (what the
+//! effect adds to the sensor's output, linear in its parameters), with the
+//! words a person reads and the experiment that excites it.
+//!
+//! Frames: `s` the sensor (= platform) frame, `b` the table base; `k` the
+//! table axis (the same in both); `R(theta)` takes `s` to `b`.
+
+use super::Prediction;
+use nalgebra::Vector3;
+
+/// Which physics a candidate is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    /// Earth rate (more or less of it than the model has), rad/s.
+    EarthRate,
+    /// Gyro bias `G f` (nine entries), rad/s per m/s^2.
+    GSens,
+    /// Gyro rate-squared term per axis, 1/(rad/s).
+    GyroK2,
+    /// Gyro scale asymmetry per axis (`a/2 |w|`), 1.
+    GyroAsym,
+    /// IMU origin off the table axis, m in `s`.
+    Lever,
+    /// Table axis / base tilted about the two axes normal to `k`, rad.
+    Tilt,
+    /// IMU stamps late relative to the encoder, s.
+    TimeOffset,
+    /// Gyro bias following the recorded temperature, rad/s per degC.
+    TempGyro,
+    /// Accelerometer bias following the recorded temperature, m/s^2 per degC.
+    TempAccel,
+    /// No temperature recorded: a gyro warm-up `1 - exp(-t / tau)` with this
+    /// `tau`, s (a nonlinear parameter, fitted on a grid).
+    Warmup(f64),
+    /// Once-per-revolution encoder angle error, rad.
+    Encoder,
+    /// Accelerometer specific-force-squared term per axis, 1/(m/s^2).
+    AccelK2,
+}
+
+/// One candidate.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// Effect id (diagnose-v1).
+    pub id: &'static str,
+    /// Its physics.
+    pub kind: Kind,
+}
+
+/// One regressor: parameter `param` of the candidate acts on channel `ch`
+/// (0-2 gyro x-z, 3-5 accel x-z) through `col` (per IMU sample).
+pub struct Term {
+    /// Channel.
+    pub ch: usize,
+    /// Parameter index.
+    pub param: usize,
+    /// Regressor per sample (channel unit per parameter unit).
+    pub col: Vec<f64>,
+}
+
+const AX: [&str; 3] = ["x", "y", "z"];
+
+/// A gyro axis whose rate never exceeds this (5 deg/s) gets no rate-shaped
+/// terms: nothing in the run drives them.
+pub const MIN_RATE_RADPS: f64 = 0.0873;
+
+/// Vector of `b` expressed in `s` at table angle `th` (rad) about `k`.
+fn to_s(k: &Vector3<f64>, th: f64, v: &Vector3<f64>) -> Vector3<f64> {
+    let (s, c) = th.sin_cos();
+    v * c - k.cross(v) * s + k * (k.dot(v) * (1.0 - c))
+}
+
+/// The two unit vectors normal to `k` (basis axes of `b`), and their names.
+fn normals(k: &Vector3<f64>) -> [(Vector3<f64>, &'static str); 2] {
+    let i = k.iamax();
+    let a = (i + 1) % 3;
+    let b = (i + 2) % 3;
+    [(Vector3::ith(a, 1.0), AX[a]), (Vector3::ith(b, 1.0), AX[b])]
+}
+
+impl Candidate {
+    /// Parameter names, SI units in the names.
+    pub fn params(&self, p: &Prediction) -> Vec<String> {
+        let per_axis = |f: &dyn Fn(&str) -> String| AX.iter().map(|a| f(a)).collect();
+        match self.kind {
+            Kind::EarthRate => vec!["earth_rate_radps".into()],
+            Kind::GSens => AX
+                .iter()
+                .flat_map(|i| {
+                    AX.iter()
+                        .map(move |j| format!("g_sens_{i}{j}_radps_per_mps2"))
+                })
+                .collect(),
+            Kind::GyroK2 => per_axis(&|a| format!("k2_{a}_per_radps")),
+            Kind::GyroAsym => per_axis(&|a| format!("asymmetry_{a}")),
+            Kind::Lever => per_axis(&|a| format!("lever_{a}_m")),
+            Kind::Tilt => normals(&p.k)
+                .iter()
+                .map(|(_, a)| format!("tilt_about_{a}_rad"))
+                .collect(),
+            Kind::TimeOffset => vec!["time_offset_s".into()],
+            Kind::TempGyro => per_axis(&|a| format!("temp_bias_{a}_radps_per_degc")),
+            Kind::TempAccel => per_axis(&|a| format!("temp_bias_{a}_mps2_per_degc")),
+            Kind::Warmup(_) => per_axis(&|a| format!("warmup_bias_{a}_radps")),
+            Kind::Encoder => vec!["encoder_cos_rad".into(), "encoder_sin_rad".into()],
+            Kind::AccelK2 => per_axis(&|a| format!("k2_{a}_per_mps2")),
+        }
+    }
+
+    /// Extra parameters fixed by the candidate itself (nonlinear ones found
+    /// on a grid), reported with the fitted ones.
+    pub fn fixed(&self) -> Vec<(String, f64)> {
+        match self.kind {
+            Kind::Warmup(tau) => vec![("warmup_tau_s".into(), tau)],
+            _ => vec![],
+        }
+    }
+
+    /// The regressors on the prediction `p`.
+    pub fn terms(&self, p: &Prediction) -> Vec<Term> {
+        let n = p.t_s.len();
+        let col = |f: &dyn Fn(usize) -> f64| (0..n).map(f).collect::<Vec<f64>>();
+        let mut out = vec![];
+        let k = p.k;
+        match self.kind {
+            Kind::EarthRate => {
+                let unit = p.w_e_b / p.w_e_b.norm().max(1e-300);
+                let v: Vec<Vector3<f64>> = (0..n).map(|r| to_s(&k, p.theta[r].0, &unit)).collect();
+                for ch in 0..3 {
+                    out.push(Term {
+                        ch,
+                        param: 0,
+                        col: v.iter().map(|x| x[ch]).collect(),
+                    });
+                }
+            }
+            Kind::GSens => {
+                for i in 0..3 {
+                    for j in 0..3 {
+                        out.push(Term {
+                            ch: i,
+                            param: 3 * i + j,
+                            col: col(&|r| p.f[r][j]),
+                        });
+                    }
+                }
+            }
+            Kind::GyroK2 | Kind::GyroAsym | Kind::AccelK2 => {
+                for i in 0..3 {
+                    // Only axes the run drives (a gyro that sees nothing but
+                    // the earth rate says nothing about its nonlinearity).
+                    if self.kind != Kind::AccelK2
+                        && !p.w.iter().any(|w| w[i].abs() > MIN_RATE_RADPS)
+                    {
+                        continue;
+                    }
+                    let c = match self.kind {
+                        Kind::GyroK2 => col(&|r| p.w[r][i] * p.w[r][i]),
+                        Kind::GyroAsym => col(&|r| 0.5 * p.w[r][i].abs()),
+                        _ => col(&|r| p.f[r][i] * p.f[r][i]),
+                    };
+                    let ch = if self.kind == Kind::AccelK2 { i + 3 } else { i };
+                    out.push(Term {
+                        ch,
+                        param: i,
+                        col: c,
+                    });
+                }
+            }
+            Kind::Lever => {
+                // a = theta_ddot k x r + theta_dot^2 k x (k x r), linear in r.
+                for j in 0..3 {
+                    let e = Vector3::ith(j, 1.0);
+                    let (t1, t2) = (k.cross(&e), k.cross(&k.cross(&e)));
+                    for i in 0..3 {
+                        out.push(Term {
+                            ch: 3 + i,
+                            param: j,
+                            col: col(&|r| {
+                                let (_, w, a) = p.theta[r];
+                                t1[i] * a + t2[i] * w * w
+                            }),
+                        });
+                    }
+                }
+            }
+            Kind::Tilt => {
+                // Base rotated by delta: gravity and earth rate seen in s
+                // change by R^T (v_b x delta).
+                for (j, (u, _)) in normals(&k).iter().enumerate() {
+                    let (df, dw) = (p.f_b.cross(u), p.w_e_b.cross(u));
+                    let vf: Vec<Vector3<f64>> =
+                        (0..n).map(|r| to_s(&k, p.theta[r].0, &df)).collect();
+                    let vw: Vec<Vector3<f64>> =
+                        (0..n).map(|r| to_s(&k, p.theta[r].0, &dw)).collect();
+                    for i in 0..3 {
+                        out.push(Term {
+                            ch: 3 + i,
+                            param: j,
+                            col: vf.iter().map(|x| x[i]).collect(),
+                        });
+                        out.push(Term {
+                            ch: i,
+                            param: j,
+                            col: vw.iter().map(|x| x[i]).collect(),
+                        });
+                    }
+                }
+            }
+            Kind::TimeOffset => {
+                // y(t) = x(t - dt): the residual is -dt dx/dt (first order;
+                // refined by re-predicting with the fitted offset).
+                for i in 0..3 {
+                    out.push(Term {
+                        ch: i,
+                        param: 0,
+                        col: col(&|r| -deriv(&p.w, &p.t_s, r, i)),
+                    });
+                }
+            }
+            Kind::TempGyro | Kind::TempAccel => {
+                let base = if self.kind == Kind::TempGyro { 0 } else { 3 };
+                for i in 0..3 {
+                    out.push(Term {
+                        ch: base + i,
+                        param: i,
+                        col: p.dtemp.clone(),
+                    });
+                }
+            }
+            Kind::Warmup(tau) => {
+                let t0 = p.t_s.first().copied().unwrap_or(0.0);
+                for i in 0..3 {
+                    out.push(Term {
+                        ch: i,
+                        param: i,
+                        col: col(&|r| 1.0 - (-(p.t_s[r] - t0) / tau).exp()),
+                    });
+                }
+            }
+            Kind::Encoder => {
+                // Encoder angle error e(theta) = c cos + s sin: the rate
+                // taken from it is off by de/dt = theta_dot de/dtheta, on the
+                // table axis (the gyro is right, the prediction wrong).
+                for i in 0..3 {
+                    if k[i].abs() < 1e-12 {
+                        continue;
+                    }
+                    out.push(Term {
+                        ch: i,
+                        param: 0,
+                        col: col(&|r| {
+                            let (th, w, _) = p.theta[r];
+                            k[i] * w * th.sin()
+                        }),
+                    });
+                    out.push(Term {
+                        ch: i,
+                        param: 1,
+                        col: col(&|r| {
+                            let (th, w, _) = p.theta[r];
+                            -k[i] * w * th.cos()
+                        }),
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// Where the mismatch shows.
+    pub fn where_(&self) -> &'static str {
+        match self.kind {
+            Kind::EarthRate => "1x table revolution harmonic on the gyros normal to the table axis (the horizontal earth rate)",
+            Kind::GSens => "gyro bias phase-locked to the accelerometer channels",
+            Kind::GyroK2 => "table-axis gyro: grows with the square of the rate, same sign both ways",
+            Kind::GyroAsym => "table-axis gyro: flips with the direction of rotation, in proportion to the rate",
+            Kind::Lever => "accelerometers: with the square of the table rate (centripetal) and its acceleration (tangential)",
+            Kind::Tilt => "1x table revolution harmonic on the accelerometers normal to the table axis",
+            Kind::TimeOffset => "gyros, only where the table rate changes (ramps, reversals)",
+            Kind::TempGyro | Kind::TempAccel => "slow, following the recorded temperature",
+            Kind::Warmup(_) => "slow, an exponential settling after turn-on (no temperature recorded)",
+            Kind::Encoder => "1x table revolution harmonic on the table-axis gyro, in proportion to the rate",
+            Kind::AccelK2 => "accelerometers, with the square of the specific force along each axis",
+        }
+    }
+
+    /// For a person.
+    pub fn explain(&self) -> &'static str {
+        match self.kind {
+            Kind::EarthRate => "the earth's rotation is felt by the gyros but is not (or not rightly) in the model",
+            Kind::GSens => "the gyro bias depends on the specific force (g-sensitivity): it changes as gravity and the table's accelerations turn through the sensor axes",
+            Kind::GyroK2 => "the gyro output is not linear in rate: a rate-squared term grows with the table rate",
+            Kind::GyroAsym => "the gyro scale differs between positive and negative rates",
+            Kind::Lever => "the IMU sits off the table axis: centripetal and tangential accelerations add to the specific force",
+            Kind::Tilt => "the table axis is not where the model puts it (tilted axis or base not level): gravity turns through the sensor once per revolution",
+            Kind::TimeOffset => "the IMU samples and the encoder reads are stamped on clocks offset from each other: the error follows the rate's changes",
+            Kind::TempGyro => "the gyro bias follows the recorded temperature",
+            Kind::TempAccel => "the accelerometer bias follows the recorded temperature",
+            Kind::Warmup(_) => "the gyro bias settles after turn-on as the sensor warms up (temperature not recorded: modelled as a warm-up exponential)",
+            Kind::Encoder => "the encoder angle carries an error that repeats each revolution (eccentricity, graduation): the rate taken from it is wrong once per turn",
+            Kind::AccelK2 => "the accelerometer output is not linear in specific force",
+        }
+    }
+
+    /// The experiment that would excite it when this run does not.
+    pub fn excite(&self) -> &'static str {
+        match self.kind {
+            Kind::EarthRate => "turn the table about a vertical axis so the horizontal earth rate turns through the gyros",
+            Kind::GSens | Kind::AccelK2 => "turn the table about a horizontal axis so gravity sweeps +-1 g through the sensor axes",
+            Kind::GyroK2 | Kind::GyroAsym => "turn the table at several rates in both directions",
+            Kind::Lever => "turn the table at a high rate with ramps (centripetal and tangential accelerations)",
+            Kind::Tilt => "turn the table through whole revolutions",
+            Kind::TimeOffset => "change the table rate (ramps, reversals)",
+            Kind::TempGyro | Kind::TempAccel | Kind::Warmup(_) => "record from a cold start, with the temperature",
+            Kind::Encoder => "turn the table through whole revolutions at a steady rate",
+        }
+    }
+}
+
+/// Central difference of component `i` of `v` over time `t`.
+pub fn deriv(v: &[Vector3<f64>], t: &[f64], r: usize, i: usize) -> f64 {
+    let a = r.saturating_sub(1);
+    let b = (r + 1).min(v.len().saturating_sub(1));
+    if b <= a {
+        return 0.0;
+    }
+    (v[b][i] - v[a][i]) / (t[b] - t[a])
+}
+
+/// The experiment that tells two effects apart when a run cannot.
+pub fn separate(a: &str, b: &str) -> String {
+    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
+    if pair("gyro_scale_nonlinearity", "gyro_scale_asymmetry") {
+        "run at two or more rates: a rate-squared term grows with the rate squared, an asymmetry in proportion to it".into()
+    } else if pair("gyro_g_sensitivity", "gyro_scale_nonlinearity") {
+        "put the IMU on the table axis (no centripetal acceleration) or turn the axis horizontal so gravity alone excites the g-sensitivity".into()
+    } else if pair("axis_tilt", "earth_rate") {
+        "repeat at another heading or reverse the rotation: the earth rate's 1x harmonic stays fixed in the earth frame, a tilt's on the accelerometers follows the base".into()
+    } else if pair("time_offset", "encoder_error") {
+        "turn at a steady rate for whole revolutions (encoder error) and reverse often (time offset)".into()
+    } else if pair("time_offset", "lever_arm") {
+        "ramp the rate at two accelerations: a time offset follows the rate change, a lever arm its square".into()
+    } else if a.starts_with("temperature") || b.starts_with("temperature") {
+        "record from a cold start with the temperature, or heat the sensor while the table turns"
+            .into()
+    } else {
+        "reverse the rotation, change the rate or tilt the axis: a run where the two signatures differ".into()
+    }
+}
+
+/// The library for a prediction: every id's candidates (a warm-up grid
+/// stands for `temperature_bias` when no temperature was recorded).
+pub fn library(p: &Prediction) -> Vec<Candidate> {
+    let c = |id, kind| Candidate { id, kind };
+    let mut v = vec![
+        c("earth_rate", Kind::EarthRate),
+        c("gyro_g_sensitivity", Kind::GSens),
+        c("gyro_scale_nonlinearity", Kind::GyroK2),
+        c("gyro_scale_asymmetry", Kind::GyroAsym),
+        c("lever_arm", Kind::Lever),
+        c("axis_tilt", Kind::Tilt),
+        c("time_offset", Kind::TimeOffset),
+        c("encoder_error", Kind::Encoder),
+        c("accel_scale_nonlinearity", Kind::AccelK2),
+    ];
+    if p.temp_recorded {
+        v.push(c("temperature_bias", Kind::TempGyro));
+        v.push(c("temperature_bias", Kind::TempAccel));
+    } else {
+        let span = p.t_s.last().copied().unwrap_or(0.0) - p.t_s.first().copied().unwrap_or(0.0);
+        for tau in [60.0, 120.0, 300.0, 600.0, 1200.0, 2400.0] {
+            if tau < span / 2.0 {
+                v.push(c("temperature_bias", Kind::Warmup(tau)));
+            }
+        }
+    }
+    v
+}

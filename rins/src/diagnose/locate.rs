@@ -1,0 +1,269 @@
+//! Locate: where the residual is, by motion (still, turning each way, rate
+//! changes), by time, by table angle (rotation harmonics), in the angle
+//! domain for the table-axis gyro (so encoder quantisation is not
+//! differentiated into rate noise), and what is left unexplained.
+
+use super::noise::Noise;
+use super::{blocks, rms, Prediction, Unexplained, BIC_MARGIN, CHANNELS};
+use nalgebra::{DMatrix, DVector};
+
+/// Highest table-angle harmonic looked at.
+pub const HARMONICS: usize = 8;
+
+/// Table rate below which the table counts as still, rad/s (1 deg/s).
+const STILL_RADPS: f64 = 0.017_453;
+/// Table acceleration above which a sample is in a rate change, rad/s^2
+/// (5 deg/s^2: well above the encoder-derived acceleration's noise at a
+/// steady rate once averaged over a block).
+const RAMP_RADPS2: f64 = 0.087;
+
+/// The nominal residual, located.
+#[derive(Clone, Debug, Default)]
+pub struct Locate {
+    /// (label, rms per channel, samples) for each part of the run.
+    pub splits: Vec<(String, [f64; 6], usize)>,
+    /// Amplitude of the residual at table-angle harmonics 1..=HARMONICS,
+    /// per channel (channel unit); empty if the table did not turn a whole
+    /// revolution.
+    pub harmonics: Vec<[f64; 6]>,
+    /// Table-axis gyro against the encoder in the angle domain: the
+    /// integrated residual (rad), detrended; (rms, 1x-revolution amplitude).
+    pub angle_domain: Option<(f64, f64)>,
+}
+
+/// Which part of the run each sample is in (0 still, 1 turning +, 2
+/// turning -, 3 rate changing). The rate and acceleration come from encoder
+/// angles 0.2 s apart, so quantisation does not pass for a ramp.
+fn parts(p: &Prediction) -> Vec<usize> {
+    const H: f64 = 0.2;
+    (0..p.t_s.len())
+        .map(|r| {
+            let t = p.t_s[r] - p.time_offset_s;
+            let (a0, a1, a2) = (p.angle_at(t - H), p.angle_at(t), p.angle_at(t + H));
+            part_of((a2 - a0) / (2.0 * H), (a2 - 2.0 * a1 + a0) / (H * H))
+        })
+        .collect()
+}
+
+fn part_of(w: f64, a: f64) -> usize {
+    if a.abs() > RAMP_RADPS2 {
+        3
+    } else if w.abs() < STILL_RADPS {
+        0
+    } else if w > 0.0 {
+        1
+    } else {
+        2
+    }
+}
+
+/// Amplitudes of harmonics 1..=kmax of `res` against the angle `theta`
+/// (least squares on cos / sin, with an intercept).
+pub fn harmonics(res: &[f64], theta: &[f64], kmax: usize) -> Vec<f64> {
+    let n = res.len().min(theta.len());
+    let m = 1 + 2 * kmax;
+    let mut ata = DMatrix::<f64>::zeros(m, m);
+    let mut aty = DVector::<f64>::zeros(m);
+    let mut row = DVector::<f64>::zeros(m);
+    for r in 0..n {
+        row[0] = 1.0;
+        for k in 1..=kmax {
+            let (s, c) = (k as f64 * theta[r]).sin_cos();
+            row[2 * k - 1] = c;
+            row[2 * k] = s;
+        }
+        ata += &row * row.transpose();
+        aty += &row * res[r];
+    }
+    let sol = (ata + DMatrix::identity(m, m) * 1e-9)
+        .cholesky()
+        .map(|c| c.solve(&aty))
+        .unwrap_or_else(|| DVector::zeros(m));
+    (1..=kmax)
+        .map(|k| sol[2 * k - 1].hypot(sol[2 * k]))
+        .collect()
+}
+
+/// Locates the nominal residual.
+pub fn locate(p: &Prediction, res: &[Vec<f64>; 6], dt: f64) -> Locate {
+    let n = p.t_s.len();
+    let labels = [
+        "table still",
+        "turning +",
+        "turning -",
+        "rate changing",
+        "first half",
+        "second half",
+    ];
+    let mut splits = vec![];
+    let parts = parts(p);
+    for (li, label) in labels.iter().enumerate() {
+        let sel: Vec<usize> = (0..n)
+            .filter(|&r| match li {
+                4 => r < n / 2,
+                5 => r >= n / 2,
+                _ => parts[r] == li,
+            })
+            .collect();
+        if sel.is_empty() {
+            continue;
+        }
+        let v: [f64; 6] =
+            std::array::from_fn(|ch| rms(&sel.iter().map(|&r| res[ch][r]).collect::<Vec<_>>()));
+        splits.push(((*label).to_string(), v, sel.len()));
+    }
+    let theta: Vec<f64> = p.theta.iter().map(|t| t.0).collect();
+    let span = theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - theta.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut harm = vec![];
+    let mut angle_domain = None;
+    if span >= 0.999 * core::f64::consts::TAU {
+        let per: Vec<Vec<f64>> = (0..6)
+            .map(|ch| harmonics(&res[ch], &theta, HARMONICS))
+            .collect();
+        harm = (0..HARMONICS)
+            .map(|k| std::array::from_fn(|ch| per[ch][k]))
+            .collect();
+        // Angle domain: integrate the table-axis gyro's residual; the
+        // encoder enters as an angle, its quantisation as +-half a count.
+        let i = p.k.iamax();
+        let mut acc = 0.0;
+        let ang: Vec<f64> = res[i]
+            .iter()
+            .map(|v| {
+                acc += v * dt;
+                acc
+            })
+            .collect();
+        // Detrend (a bias left in the residual integrates to a ramp).
+        let t = &p.t_s;
+        let tm = t.iter().sum::<f64>() / n as f64;
+        let am = ang.iter().sum::<f64>() / n as f64;
+        let (mut sxy, mut sxx) = (0.0, 0.0);
+        for r in 0..n {
+            sxy += (t[r] - tm) * (ang[r] - am);
+            sxx += (t[r] - tm).powi(2);
+        }
+        let slope = sxy / sxx.max(1e-300);
+        let det: Vec<f64> = (0..n).map(|r| ang[r] - am - slope * (t[r] - tm)).collect();
+        let h1 = harmonics(&det, &theta, 1).first().copied().unwrap_or(0.0);
+        angle_domain = Some((rms(&det), h1));
+    }
+    Locate {
+        splits,
+        harmonics: harm,
+        angle_domain,
+    }
+}
+
+/// Ljung-Box statistic of a whitened series over `lags` lags (chi^2 with
+/// `lags` degrees of freedom when white): (Q, lags).
+pub fn ljung_box(w: &[f64], lags: usize) -> (f64, usize) {
+    let n = w.len();
+    if n <= lags + 1 {
+        return (0.0, lags);
+    }
+    let mean = w.iter().sum::<f64>() / n as f64;
+    let c0: f64 = w.iter().map(|x| (x - mean).powi(2)).sum();
+    let mut q = 0.0;
+    for h in 1..=lags {
+        let ch: f64 = (h..n).map(|i| (w[i] - mean) * (w[i - h] - mean)).sum();
+        let rho = ch / c0.max(1e-300);
+        q += rho * rho / (n - h) as f64;
+    }
+    (n as f64 * (n as f64 + 2.0) * q, lags)
+}
+
+/// Mismatches left in the final residual that no effect explains: table
+/// angle harmonics and offsets tied to the motion (one direction, rate
+/// changes), each judged on the whitened block means by the same BIC margin
+/// as the findings.
+pub fn unexplained(
+    p: &Prediction,
+    res: &[Vec<f64>],
+    noise: &[Noise],
+    len: usize,
+    ln_n: f64,
+) -> Vec<Unexplained> {
+    let n = p.t_s.len();
+    let theta: Vec<f64> = p.theta.iter().map(|t| t.0).collect();
+    let span = theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - theta.iter().copied().fold(f64::INFINITY, f64::min);
+    // Candidate signatures: (where, columns).
+    let mut groups: Vec<(String, Vec<Vec<f64>>)> = vec![];
+    if span >= 0.999 * core::f64::consts::TAU {
+        for k in 1..=6 {
+            let kf = k as f64;
+            groups.push((
+                format!("{k}x table revolution harmonic"),
+                vec![
+                    theta.iter().map(|t| (kf * t).cos()).collect(),
+                    theta.iter().map(|t| (kf * t).sin()).collect(),
+                ],
+            ));
+        }
+    }
+    let parts = parts(p);
+    for (pi, label) in [
+        (1, "while turning +"),
+        (2, "while turning -"),
+        (3, "while the rate changes"),
+    ] {
+        let c: Vec<f64> = (0..n)
+            .map(|r| f64::from(u8::from(parts[r] == pi)))
+            .collect();
+        let cnt = c.iter().sum::<f64>();
+        if cnt > 0.0 && cnt < n as f64 {
+            groups.push((format!("an offset {label}"), vec![c]));
+        }
+    }
+    let mut out = vec![];
+    for (ch, nm) in noise.iter().enumerate().take(6) {
+        let z = &res[ch];
+        let nb = z.len();
+        if nb < 10 {
+            continue;
+        }
+        let g = nm.gains(nb);
+        let s = 1.0 / nm.r.max(1e-300).sqrt();
+        let mut zw = vec![];
+        g.whiten_into(z, &mut zw);
+        let zw = DVector::from_iterator(nb, zw.iter().map(|v| v * s));
+        let one = DVector::from_iterator(nb, {
+            let mut b = vec![];
+            g.whiten_into(&vec![1.0; nb], &mut b);
+            b.into_iter().map(|v| v * s)
+        });
+        for (where_, cols) in &groups {
+            let m = cols.len() + 1;
+            let mut x = DMatrix::<f64>::zeros(nb, m);
+            x.set_column(0, &one);
+            let mut buf = vec![];
+            for (j, c) in cols.iter().enumerate() {
+                g.whiten_into(&blocks(c, len), &mut buf);
+                for r in 0..nb {
+                    x[(r, j + 1)] = buf[r] * s;
+                }
+            }
+            let xtx = x.transpose() * &x;
+            let xty = x.transpose() * &zw;
+            let Some(ch_) = (xtx.clone() + DMatrix::identity(m, m) * 1e-9).cholesky() else {
+                continue;
+            };
+            let beta = ch_.solve(&xty);
+            let r1 = (&zw - &x * &beta).norm_squared();
+            let mean = zw.dot(&one) / one.norm_squared().max(1e-300);
+            let r0 = (&zw - &one * mean).norm_squared();
+            let dchi = (r0 - r1).max(0.0);
+            if -dchi + cols.len() as f64 * ln_n < -BIC_MARGIN {
+                out.push(Unexplained {
+                    channels: vec![CHANNELS[ch].to_string()],
+                    where_: where_.clone(),
+                    snr: dchi.sqrt(),
+                });
+            }
+        }
+    }
+    out.sort_by(|a, b| b.snr.total_cmp(&a.snr));
+    out
+}

@@ -1,0 +1,305 @@
+//! Show: the text report a person reads in a minute, and the plots
+//! (residuals before / after, the table-angle harmonic spectrum, Allan
+//! deviation before / after).
+
+use super::{blocks, Diagnosis, CHANNELS};
+use crate::plot::{Chart, Series};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Engineering units of a channel's values: (scale from SI, unit).
+fn eng(ch: usize) -> (f64, &'static str) {
+    if ch < 3 {
+        (180.0 / core::f64::consts::PI * 3600.0, "deg/h")
+    } else {
+        (1e6 / 9.806_65, "ug")
+    }
+}
+
+/// A parameter in engineering units where the name says what it is.
+fn eng_param(name: &str, v: f64) -> String {
+    let deg = 180.0 / core::f64::consts::PI;
+    if name.ends_with("_rad") {
+        format!("{:.4} deg ({:.1} arcsec)", v * deg, v * deg * 3600.0)
+    } else if name.ends_with("_radps") {
+        format!("{:.3} deg/h", v * deg * 3600.0)
+    } else if name.ends_with("_m") {
+        format!("{:.2} mm", v * 1e3)
+    } else if name.ends_with("_s") && name.starts_with("time_offset") {
+        format!("{:.3} ms", v * 1e3)
+    } else if name.ends_with("radps_per_mps2") {
+        format!("{:.4} deg/h per m/s^2", v * deg * 3600.0)
+    } else if name.ends_with("radps_per_degc") {
+        format!("{:.4} deg/h per degC", v * deg * 3600.0)
+    } else {
+        format!("{v:.4e}")
+    }
+}
+
+/// The text report.
+pub fn text(d: &Diagnosis, name: &str) -> String {
+    let mut o = String::new();
+    let det = &d.details;
+    let dur = det.t_s.last().copied().unwrap_or(0.0) - det.t_s.first().copied().unwrap_or(0.0);
+    let _ = writeln!(
+        o,
+        "{name}: {:.0} s at {:.0} Hz; nominal model fitted (bias, scale, misalignment), residual in {:.1} s blocks",
+        dur,
+        1.0 / det.dt_s.max(1e-9),
+        det.block_s
+    );
+    let _ = writeln!(
+        o,
+        "\nnoise model of the final residual (white + Gauss-Markov, ML):"
+    );
+    for (ch, n) in det.noise.iter().enumerate() {
+        let (s, u) = eng(ch);
+        let white = if ch < 3 {
+            format!(
+                "{:.3} deg/sqrt(h)",
+                n.white_density() * 180.0 / core::f64::consts::PI * 60.0
+            )
+        } else {
+            format!("{:.1} ug/sqrt(Hz)", n.white_density() * 1e6 / 9.806_65)
+        };
+        let gm = if n.lambda > 0.0 {
+            format!(
+                "wander {:.2} {u}, tau {:.0} s",
+                n.gm_sigma() * s,
+                n.tau_s().min(1e9)
+            )
+        } else {
+            "no wander".into()
+        };
+        let (q, lags) = det.whiteness.get(ch).copied().unwrap_or((0.0, 20));
+        let _ = writeln!(
+            o,
+            "  {:<14} white {white}, {gm}; whitened Ljung-Box Q({lags}) = {q:.0} (white: ~{lags} +- {:.0})",
+            CHANNELS[ch],
+            (2.0 * lags as f64).sqrt() * 2.0
+        );
+    }
+    let _ = writeln!(o, "\nwhere the nominal residual is (rms, deg/h and ug):");
+    let _ = write!(o, "  {:<14}", "");
+    for c in CHANNELS {
+        let _ = write!(o, " {:>9}", &c[..c.rfind('_').unwrap_or(c.len())]);
+    }
+    let _ = writeln!(o);
+    for (label, v, n) in &det.locate.splits {
+        let _ = write!(o, "  {label:<14}");
+        for (ch, x) in v.iter().enumerate() {
+            let _ = write!(o, " {:>9.1}", x * eng(ch).0);
+        }
+        let _ = writeln!(o, "   ({n} samples)");
+    }
+    if !det.locate.harmonics.is_empty() {
+        let _ = writeln!(
+            o,
+            "  table-angle harmonics of the nominal residual (amplitude):"
+        );
+        for (k, v) in det.locate.harmonics.iter().enumerate().take(4) {
+            let _ = write!(o, "  {:>2}x/rev       ", k + 1);
+            for (ch, x) in v.iter().enumerate() {
+                let _ = write!(o, " {:>9.1}", x * eng(ch).0);
+            }
+            let _ = writeln!(o);
+        }
+    }
+    if let Some((r, h1)) = det.locate.angle_domain {
+        let _ = writeln!(
+            o,
+            "  table-axis gyro against the encoder, angle domain: rms {:.1} arcsec, 1x/rev {:.1} arcsec",
+            r.to_degrees() * 3600.0,
+            h1.to_degrees() * 3600.0
+        );
+    }
+    let _ = writeln!(o);
+    if d.findings.is_empty() {
+        let _ = writeln!(
+            o,
+            "no finding: the nominal model explains the recording down to its noise"
+        );
+    }
+    for (i, f) in d.findings.iter().enumerate() {
+        let dbic = f.significance["delta_bic"].as_f64().unwrap_or(0.0);
+        let snr = f.significance["snr"].as_f64().unwrap_or(0.0);
+        let _ = writeln!(o, "{}. {} on {}", i + 1, f.effect, f.channels.join(", "));
+        let _ = writeln!(o, "   {}", f.explanation);
+        let _ = writeln!(o, "   where: {}", f.where_);
+        for (k, v) in &f.parameters {
+            if k.starts_with("sigma_") {
+                continue;
+            }
+            let x = v.as_f64().unwrap_or(0.0);
+            match f
+                .parameters
+                .get(&format!("sigma_{k}"))
+                .and_then(serde_json::Value::as_f64)
+            {
+                Some(s) => {
+                    let _ = writeln!(o, "   {k} = {x:.4e} +- {s:.1e}   [{}]", eng_param(k, x));
+                }
+                None => {
+                    let _ = writeln!(o, "   {k} = {x:.4e}   [{}]", eng_param(k, x));
+                }
+            }
+        }
+        let _ = writeln!(
+            o,
+            "   how sure: delta BIC {dbic:.0} (lower by 10 is very strong), SNR {snr:.1}; held-out rms {:.3e} -> {:.3e}",
+            f.fit["heldout_rms_before"].as_f64().unwrap_or(0.0),
+            f.fit["heldout_rms_after"].as_f64().unwrap_or(0.0)
+        );
+    }
+    if !d.unexplained.is_empty() {
+        let _ = writeln!(
+            o,
+            "\nlocated but not explained by any effect in the library:"
+        );
+        for u in &d.unexplained {
+            let _ = writeln!(
+                o,
+                "  {} : {} (SNR {:.1})",
+                u.channels.join(", "),
+                u.where_,
+                u.snr
+            );
+        }
+    }
+    if !det.not_observable.is_empty() {
+        let _ = writeln!(
+            o,
+            "\nnot observable in this run (and the experiment that would show them):"
+        );
+        for (id, how) in &det.not_observable {
+            let _ = writeln!(o, "  {id}: {how}");
+        }
+    }
+    let _ = writeln!(
+        o,
+        "\nresidual rms per sample, before -> after the findings (deg/h, ug):"
+    );
+    for ch in 0..6 {
+        let (s, _) = eng(ch);
+        let _ = writeln!(
+            o,
+            "  {:<14} {:>10.1} -> {:>10.1}",
+            CHANNELS[ch],
+            super::rms(&det.res_before[ch]) * s,
+            super::rms(&det.res_after[ch]) * s
+        );
+    }
+    o
+}
+
+/// Writes the plots into `dir`; returns the files written.
+///
+/// # Errors
+/// The directory or a file cannot be written.
+pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+    std::fs::create_dir_all(dir)?;
+    let det = &d.details;
+    let mut out = vec![];
+    let len = ((1.0 / det.dt_s.max(1e-9)).round() as usize).max(1);
+    let tb: Vec<f64> = blocks(&det.t_s, len);
+    for (triad, label) in [(0usize, "gyro"), (1, "accel")] {
+        // Residuals before / after, 1 s means.
+        let mut c = Chart {
+            title: format!("{label} residual, 1 s means: nominal model vs with the findings"),
+            x_label: "time (s)".into(),
+            y_label: if triad == 0 {
+                "deg/h".into()
+            } else {
+                "ug".into()
+            },
+            ..Chart::default()
+        };
+        for i in 0..3 {
+            let ch = 3 * triad + i;
+            let (s, _) = eng(ch);
+            for (which, res, dashed) in [
+                ("nominal", &det.res_before[ch], false),
+                ("after", &det.res_after[ch], true),
+            ] {
+                let b = blocks(res, len);
+                let mut se = Series::line(
+                    format!("{} {which}", CHANNELS[ch]),
+                    tb.iter().zip(&b).map(|(t, v)| (*t, v * s)).collect(),
+                );
+                se.dashed = dashed;
+                c.series.push(se);
+            }
+        }
+        let p = dir.join(format!("residual_{label}.svg"));
+        c.write(&p)?;
+        out.push(p);
+        // Allan deviation before / after.
+        let mut a = Chart {
+            title: format!("{label} residual: Allan deviation before / after"),
+            x_label: "tau (s)".into(),
+            y_label: if triad == 0 {
+                "deg/h".into()
+            } else {
+                "ug".into()
+            },
+            log_x: true,
+            log_y: true,
+            ..Chart::default()
+        };
+        for i in 0..3 {
+            let ch = 3 * triad + i;
+            let (s, _) = eng(ch);
+            for (which, res, dashed) in [
+                ("nominal", &det.res_before[ch], false),
+                ("after", &det.res_after[ch], true),
+            ] {
+                let pts: Vec<(f64, f64)> = core_nav::allan::octave_factors(res.len(), 20)
+                    .filter_map(|m| core_nav::allan::oadev(res, det.dt_s, m))
+                    .filter(|p| p.adev > 0.0)
+                    .map(|p| (p.tau_s, p.adev * s))
+                    .collect();
+                let mut se = Series::line(format!("{} {which}", CHANNELS[ch]), pts);
+                se.dashed = dashed;
+                a.series.push(se);
+            }
+        }
+        let p = dir.join(format!("allan_{label}.svg"));
+        a.write(&p)?;
+        out.push(p);
+    }
+    // Harmonic spectrum against the table angle, before / after.
+    let span = det.theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - det.theta.iter().copied().fold(f64::INFINITY, f64::min);
+    if span >= 0.999 * core::f64::consts::TAU {
+        let mut h = Chart {
+            title: "residual against the table angle: harmonic amplitudes (deg/h, ug)".into(),
+            x_label: "harmonic (cycles per revolution)".into(),
+            y_label: "amplitude".into(),
+            log_y: true,
+            ..Chart::default()
+        };
+        for ch in 0..6 {
+            let (s, _) = eng(ch);
+            for (which, res, dashed) in [
+                ("nominal", &det.res_before[ch], false),
+                ("after", &det.res_after[ch], true),
+            ] {
+                let a = super::locate::harmonics(res, &det.theta, super::locate::HARMONICS);
+                let mut se = Series::line(
+                    format!("{} {which}", CHANNELS[ch]),
+                    a.iter()
+                        .enumerate()
+                        .map(|(k, v)| ((k + 1) as f64, (v * s).max(1e-6)))
+                        .collect(),
+                );
+                se.markers = true;
+                se.dashed = dashed;
+                h.series.push(se);
+            }
+        }
+        let p = dir.join("harmonics.svg");
+        h.write(&p)?;
+        out.push(p);
+    }
+    Ok(out)
+}
