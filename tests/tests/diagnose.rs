@@ -1,64 +1,339 @@
-//! `rins diagnose`, first version: hidden effects are named on a white-noise
-//! background, and a white-noise-only run gives no finding.
+//! `rins diagnose`: every effect id hidden in a simulated run is named
+//! first with its parameters inside their confidence intervals; nulls give
+//! no finding; the JSON has the spec's shape exactly; the ADIS16405 bench
+//! hour shows bias instability.
 
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, SimConfig};
+use rins::diagnose::{run, Diagnosis, Model, Options};
 
-fn run(effect: Option<(&str, f64)>, seed: u64) -> Vec<String> {
-    // The nominal model's terms (bias, scale, misalignment) plus white noise.
+/// The nominal model's terms (NAV440 bias, scale, misalignment), white
+/// noise, and (if `wander`) its gyro bias instability; a reciprocating run
+/// (60 deg/s, two turns each way) after a 30 s still phase, about `axis`.
+/// The encoder has 2^22 counts: the default 14-bit encoder's quantisation
+/// is larger than the NAV440's gyro noise on the table axis and is reported
+/// as unexplained (see the README), which is not what these tests are about.
+fn config(axis: Axis, wander: bool, seed: u64, duration_s: f64) -> SimConfig {
     let mut s = ImuSpec::ideal();
     let nav = ImuSpec::nav440();
     s.gyro.bias = nav.gyro.bias;
     s.gyro.scale = nav.gyro.scale;
     s.gyro.misalignment = nav.gyro.misalignment;
     s.gyro.white = nav.gyro.white;
+    if wander {
+        s.gyro.bias_instability = nav.gyro.bias_instability;
+        s.gyro.bi_tau_s = nav.gyro.bi_tau_s;
+    }
     s.accel.bias = nav.accel.bias;
+    s.accel.scale = nav.accel.scale;
     s.accel.white = nav.accel.white;
-    let mut c = SimConfig::new(s, Axis::Z, 400.0);
+    s.temp = nav.temp;
+    let mut c = SimConfig::new(s, axis, duration_s);
     c.scheme = Scheme::Reciprocating {
         rate: 60f64.to_radians(),
         turns: 2,
     };
+    c.static_s = 30.0;
+    c.encoder.counts_per_rev = 1 << 22;
     c.seed = seed;
-    if let Some((name, v)) = effect {
-        c.set_effect(name, v).unwrap();
-    }
-    let rec = simulate(&c, &mut |_| {}).unwrap();
-    let report = rins::diagnose::diagnose(&rec, "test");
-    report["findings"]
-        .as_array()
-        .unwrap()
+    c
+}
+
+fn diagnose(c: &SimConfig, model: Model) -> Diagnosis {
+    let rec = simulate(c, &mut |_| {}).unwrap();
+    run(
+        &rec,
+        "test",
+        &Options {
+            model,
+            ..Options::default()
+        },
+    )
+    .unwrap()
+}
+
+fn named(d: &Diagnosis) -> Vec<&str> {
+    d.findings
         .iter()
-        .map(|f| f["effect"].as_str().unwrap().to_string())
+        .map(|f| f.effect.as_str())
+        .filter(|e| *e != "bias_instability")
         .collect()
 }
 
+/// A parameter and its 1-sigma.
+fn param(d: &Diagnosis, effect: &str, name: &str) -> (f64, f64) {
+    let f = d.findings.iter().find(|f| f.effect == effect).unwrap();
+    (
+        f.parameters[name].as_f64().unwrap(),
+        f.parameters[&format!("sigma_{name}")].as_f64().unwrap(),
+    )
+}
+
+/// Inside the confidence interval: 3 sigma (99.7 %) of the fit's own
+/// covariance, plus 2 % of the truth for what the covariance does not hold
+/// (regressors built from encoder rates, first-order terms).
+fn inside(est: (f64, f64), truth: f64, what: &str) {
+    let (v, s) = est;
+    assert!(
+        (v - truth).abs() <= 3.0 * s + 0.02 * truth.abs(),
+        "{what}: {v:.4e} +- {s:.1e} against {truth:.4e}"
+    );
+}
+
 #[test]
-fn hidden_effects_are_named_first() {
-    for (name, v) in [
-        ("lever_arm", 0.05),
-        ("time_offset", 0.005),
-        ("gyro_scale_nonlinearity", 0.01),
+fn each_effect_is_named_first_with_its_parameters() {
+    let deg = 1f64.to_radians();
+    let pattern = [[1.0, -1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, 1.0]];
+    for (effect, v, axis) in [
+        ("lever_arm", 0.02, Axis::Z),
+        ("time_offset", 0.002, Axis::Z),
+        ("gyro_scale_nonlinearity", 0.003, Axis::Z),
+        ("gyro_scale_asymmetry", 0.003, Axis::Z),
+        ("axis_tilt", 0.002, Axis::Z),
+        ("encoder_error", 2e-4, Axis::Z),
+        ("temperature_bias", 5e-4, Axis::Z),
+        ("gyro_g_sensitivity", 2e-4, Axis::Y),
+        ("accel_scale_nonlinearity", 2e-4, Axis::Y),
     ] {
-        let found = run(Some((name, v)), 3);
-        println!("{name}: {found:?}");
-        assert_eq!(
-            found.first().map(String::as_str),
-            Some(name),
-            "{name}: {found:?}"
-        );
+        let mut c = config(axis, true, 11, 600.0);
+        c.set_effect(effect, v).unwrap();
+        let d = diagnose(&c, Model::default());
+        let found = named(&d);
+        println!("{effect}: {found:?}");
+        assert_eq!(found.first().copied(), Some(effect), "{effect}: {found:?}");
+        let hyp = |a: &str, b: &str| {
+            let (x, sx) = param(&d, effect, a);
+            let (y, sy) = param(&d, effect, b);
+            (x.hypot(y), sx.max(sy))
+        };
+        match effect {
+            "lever_arm" => inside(param(&d, effect, "lever_x_m"), v, effect),
+            "time_offset" => inside(param(&d, effect, "time_offset_s"), v, effect),
+            "gyro_scale_nonlinearity" => inside(param(&d, effect, "k2_z_per_radps"), v, effect),
+            "gyro_scale_asymmetry" => inside(param(&d, effect, "asymmetry_z"), v, effect),
+            "axis_tilt" => inside(hyp("tilt_about_x_rad", "tilt_about_y_rad"), v, effect),
+            "encoder_error" => inside(hyp("encoder_cos_rad", "encoder_sin_rad"), v, effect),
+            "temperature_bias" => {
+                for a in ["x", "y", "z"] {
+                    inside(
+                        param(&d, effect, &format!("temp_bias_{a}_radps_per_degc")),
+                        v,
+                        effect,
+                    );
+                }
+            }
+            "gyro_g_sensitivity" => {
+                // About y, gravity sweeps x and z: those columns are excited.
+                for (i, a) in ["x", "y", "z"].iter().enumerate() {
+                    for (j, b) in [(0, "x"), (2, "z")] {
+                        let name = format!("g_sens_{a}{b}_radps_per_mps2");
+                        inside(param(&d, effect, &name), v * pattern[i][j], &name);
+                    }
+                }
+            }
+            "accel_scale_nonlinearity" => {
+                for a in ["x", "z"] {
+                    inside(param(&d, effect, &format!("k2_{a}_per_mps2")), v, effect);
+                }
+            }
+            _ => unreachable!(),
+        }
+        let _ = deg;
     }
 }
 
 #[test]
-fn white_noise_only_gives_no_finding() {
-    for seed in [1, 2] {
-        let found = run(None, seed);
-        println!("null {seed}: {found:?}");
-        assert!(found.is_empty(), "{found:?}");
+fn earth_rate_left_out_of_the_model_is_named() {
+    // The model says the earth does not turn; the recording says it does.
+    let c = config(Axis::Z, false, 12, 600.0);
+    let d = diagnose(
+        &c,
+        Model {
+            earth_rate: false,
+            ..Model::default()
+        },
+    );
+    assert_eq!(
+        named(&d).first().copied(),
+        Some("earth_rate"),
+        "{:?}",
+        named(&d)
+    );
+    // Only the horizontal part turns through the gyros on a vertical axis;
+    // the fitted magnitude is the earth's rate.
+    inside(
+        param(&d, "earth_rate", "earth_rate_radps"),
+        core_nav::earth::EARTH_RATE_RADPS,
+        "earth rate",
+    );
+}
+
+#[test]
+fn bias_instability_is_named_with_its_parameters() {
+    let c = config(Axis::Z, true, 13, 1200.0);
+    let d = diagnose(&c, Model::default());
+    let f = d
+        .findings
+        .iter()
+        .find(|f| f.effect == "bias_instability")
+        .expect("bias instability");
+    let truth = ImuSpec::nav440().gyro.bias_instability;
+    for a in ["x", "y"] {
+        let s = f.parameters[&format!("gm_sigma_{a}_radps")]
+            .as_f64()
+            .unwrap();
+        // One 20-minute run holds ~20 correlation times (60 s): the sigma
+        // of a Gauss-Markov process is known to ~+-30 % from so few.
+        assert!(
+            (0.6..1.6).contains(&(s / truth)),
+            "{a}: {s:.3e} vs {truth:.3e}"
+        );
     }
+    assert!(
+        f.fit["heldout_rms_after"].as_f64().unwrap()
+            < f.fit["heldout_rms_before"].as_f64().unwrap()
+    );
+    assert!(named(&d).is_empty(), "{:?}", named(&d));
+}
+
+#[test]
+fn nulls_give_no_finding() {
+    for seed in [21, 22, 23] {
+        // White noise only: nothing at all.
+        let d = diagnose(&config(Axis::Z, false, seed, 600.0), Model::default());
+        assert!(d.findings.is_empty(), "white null {seed}: {:?}", d.findings);
+        // With the wandering bias: only bias_instability.
+        let d = diagnose(&config(Axis::Z, true, seed, 600.0), Model::default());
+        assert!(named(&d).is_empty(), "wander null {seed}: {:?}", named(&d));
+    }
+}
+
+#[test]
+fn known_effects_in_the_model_are_not_reported_again() {
+    let mut c = config(Axis::Z, false, 14, 600.0);
+    c.set_effect("lever_arm", 0.02).unwrap();
+    let m = Model::from_toml("earth_rate = true\n[known.lever_arm]\nlever_x_m = 0.02\n").unwrap();
+    let d = diagnose(&c, m);
+    assert!(d.findings.is_empty(), "{:?}", d.findings);
+    // A bad model is an error, not a silent default.
+    assert!(Model::from_toml("[known.lever]\nx = 1\n").is_err());
+    assert!(Model::from_toml("earth_rate = 3\n").is_err());
+}
+
+/// The key structure of a JSON value: objects by their keys (recursively),
+/// arrays by their first element.
+fn shape(v: &serde_json::Value, path: &str, out: &mut Vec<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, x) in m {
+                // Maps keyed by channel or parameter name are open.
+                let open = [
+                    "residual_rms",
+                    "parameters",
+                    "residual_rms_before",
+                    "residual_rms_after",
+                ]
+                .contains(&k.as_str());
+                out.push(format!("{path}.{k}"));
+                if !open {
+                    shape(x, &format!("{path}.{k}"), out);
+                }
+            }
+        }
+        serde_json::Value::Array(a) => {
+            if let Some(x) = a.first() {
+                shape(x, &format!("{path}[]"), out);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[test]
+fn json_matches_the_spec_exactly() {
+    let spec = std::fs::read_to_string(
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/spec/diagnose-v1.md"),
+    )
+    .unwrap();
+    let a = spec.find("```json").unwrap() + 7;
+    let b = a + spec[a..].find("```").unwrap();
+    let example: serde_json::Value = serde_json::from_str(&spec[a..b]).unwrap();
+    let mut want = vec![];
+    shape(&example, "", &mut want);
+    want.sort();
+    // A report with a finding and an unexplained entry.
+    let mut c = config(Axis::Z, true, 15, 600.0);
+    c.set_effect("lever_arm", 0.02).unwrap();
+    // Physics outside the library: a three-lobed bearing tilting the
+    // platform three times a revolution (3 mg on accel x at 3x/rev).
+    let mut rec = simulate(&c, &mut |_| {}).unwrap();
+    let p = rins::diagnose::predict(&rec, 1.0, 0.0);
+    for (r, th) in rec.imu.iter_mut().zip(&p.theta) {
+        r.accel_mps2[0] += 0.03 * (3.0 * th.0).cos();
+    }
+    let d = run(&rec, "test", &Options::default()).unwrap();
+    println!("{:?}", d.unexplained);
+    assert!(!d.unexplained.is_empty() && !d.findings.is_empty());
+    assert!(d
+        .unexplained
+        .iter()
+        .any(|u| u.where_.starts_with("3x") && u.channels == ["accel_x_mps2"]));
+    let mut got = vec![];
+    shape(&d.json, "", &mut got);
+    got.sort();
+    got.dedup();
+    want.dedup();
+    assert_eq!(got, want);
+    // Ids, channels and units as the spec says.
+    let ids = rins::diagnose::EFFECT_IDS;
+    for f in d.json["findings"].as_array().unwrap() {
+        assert!(ids.contains(&f["effect"].as_str().unwrap()));
+        for ch in f["channels"].as_array().unwrap() {
+            assert!(rins::diagnose::CHANNELS.contains(&ch.as_str().unwrap()));
+        }
+        for k in f["parameters"].as_object().unwrap().keys() {
+            assert!(
+                [
+                    "_m",
+                    "_s",
+                    "_rad",
+                    "_radps",
+                    "_mps2",
+                    "_per_radps",
+                    "_per_mps2",
+                    "_per_degc",
+                    "_per_sqrt_s",
+                    "asymmetry_"
+                ]
+                .iter()
+                .any(|u| k.ends_with(u) || k.contains(u)),
+                "{k}: no unit in the name"
+            );
+        }
+    }
+    // Most significant first.
+    let dbic: Vec<f64> = d.json["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["significance"]["delta_bic"].as_f64().unwrap())
+        .collect();
+    assert!(dbic.windows(2).all(|w| w[0] <= w[1]), "{dbic:?}");
+}
+
+#[test]
+fn bad_recordings_are_errors() {
+    let mut rec = simulate(&config(Axis::Z, false, 16, 60.0), &mut |_| {}).unwrap();
+    rec.imu[100].gyro_radps[0] = f64::NAN;
+    let e = run(&rec, "bad", &Options::default()).unwrap_err();
+    assert!(e.contains("imu sample 100"), "{e}");
+    rec.imu.truncate(10);
+    assert!(run(&rec, "short", &Options::default())
+        .unwrap_err()
+        .contains("too short"));
 }
 
 #[test]
@@ -125,10 +400,20 @@ fn adis16405_bench_hour_shows_bias_instability() {
     // instability is named on the gyros, with its parameters, and modelling
     // it lowers the held-out residual.
     assert!(!bi.is_empty(), "{findings:?}");
+    assert!(bi.iter().any(|f| f["channels"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c == "gyro_x_radps")));
     for f in bi {
-        let b = f["parameters"]["bias_instability_radps"].as_f64().unwrap();
-        // The Allan floors of this unit: 19-30 deg/h (allan_reference.rs).
-        assert!((5.0..80.0).contains(&(b.to_degrees() * 3600.0)), "{b}");
+        for (k, v) in f["parameters"].as_object().unwrap() {
+            if !(k.starts_with("bias_instability_") && k.ends_with("_radps")) {
+                continue;
+            }
+            let b = v.as_f64().unwrap();
+            // The Allan floors of this unit: 19-30 deg/h (allan_reference.rs).
+            assert!((5.0..80.0).contains(&(b.to_degrees() * 3600.0)), "{k} {b}");
+        }
         assert!(
             f["fit"]["heldout_rms_after"].as_f64().unwrap()
                 < f["fit"]["heldout_rms_before"].as_f64().unwrap()

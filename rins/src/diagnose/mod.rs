@@ -529,11 +529,14 @@ impl Design {
                 .zip(&truth_b[ch])
                 .map(|(m, t)| m - t)
                 .collect();
-            // The noise model from the nominal residual (physical, OLS).
+            // First pass: the noise model from the residual of the fullest
+            // model (nominal + every candidate, OLS), so a slow effect
+            // (warm-up) is not taken into the noise as a wandering bias
+            // before it has been tried as physics.
             let nm = match noise {
                 Some(ns) => ns[ch],
                 None => {
-                    let x = DMatrix::from_fn(nb, 4, |r, c| cc[c].1[r]);
+                    let x = DMatrix::from_fn(nb, cc.len(), |r, c| cc[c].1[r]);
                     let res = ols_residual(&x, &DVector::from_vec(y.clone()));
                     noise::fit(res.as_slice(), block_s)
                 }
