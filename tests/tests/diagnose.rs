@@ -11,10 +11,8 @@ use rins::diagnose::{run, Diagnosis, Model, Options};
 
 /// The nominal model's terms (NAV440 bias, scale, misalignment), white
 /// noise, and (if `wander`) its gyro bias instability; a reciprocating run
-/// (60 deg/s, two turns each way) after a 30 s still phase, about `axis`.
-/// The encoder has 2^22 counts: the default 14-bit encoder's quantisation
-/// is larger than the NAV440's gyro noise on the table axis and is reported
-/// as unexplained (see the README), which is not what these tests are about.
+/// (60 deg/s, two turns each way) after a 30 s still phase, about `axis`;
+/// the default table (motor, servo, 14-bit encoder).
 fn config(axis: Axis, wander: bool, seed: u64, duration_s: f64) -> SimConfig {
     let mut s = ImuSpec::ideal();
     let nav = ImuSpec::nav440();
@@ -36,7 +34,6 @@ fn config(axis: Axis, wander: bool, seed: u64, duration_s: f64) -> SimConfig {
         turns: 2,
     };
     c.static_s = 30.0;
-    c.encoder.counts_per_rev = 1 << 22;
     c.seed = seed;
     c
 }

@@ -418,6 +418,8 @@ struct ChannelDesign {
 /// Everything a fit needs.
 struct Design {
     ch: Vec<ChannelDesign>,
+    /// Encoder quantisation variance at a block edge per channel, unit^2.
+    quant: [f64; 6],
     cands: Vec<Candidate>,
     names: Vec<Vec<String>>,
     folds: usize,
@@ -502,6 +504,17 @@ impl Design {
                 }
             })
             .collect();
+        // The encoder's quantisation at a block edge, per channel: the
+        // quantum is the smallest step between reads; its error is uniform
+        // (q^2 / 12), seen through the table axis over the block length.
+        let q_enc = encoder_quantum(&p.enc.1);
+        let quant: [f64; 6] = std::array::from_fn(|ch| {
+            if ch < 3 {
+                (p.k[ch] / block_s).powi(2) * q_enc * q_enc / 12.0
+            } else {
+                0.0
+            }
+        });
         // Columns per channel, block means.
         let mut cols: Vec<Vec<(Owner, Vec<f64>)>> = (0..6).map(|_| vec![]).collect();
         for (ch, v) in cols.iter_mut().enumerate() {
@@ -538,7 +551,7 @@ impl Design {
                 None => {
                     let x = DMatrix::from_fn(nb, cc.len(), |r, c| cc[c].1[r]);
                     let res = ols_residual(&x, &DVector::from_vec(y.clone()));
-                    noise::fit(res.as_slice(), block_s)
+                    noise::fit(res.as_slice(), block_s, quant[ch])
                 }
             };
             let g: Gains = nm.gains(nb);
@@ -585,6 +598,7 @@ impl Design {
             cands,
             names,
             folds: opts.folds.max(2),
+            quant,
         }
     }
 
@@ -782,6 +796,30 @@ fn add_prior(a: &mut DMatrix<f64>, index: &[(Key, usize)], active: &[bool]) {
                 a[(*i, *i)] += 1.0 / (NOMINAL_PRIOR * NOMINAL_PRIOR);
             }
         }
+    }
+}
+
+/// The encoder's quantum, rad: the smallest non-zero step between
+/// consecutive reads, if the steps are whole multiples of it (a quantised
+/// encoder); 0 for an encoder whose angles are not on a grid.
+pub fn encoder_quantum(a: &[f64]) -> f64 {
+    let steps: Vec<f64> = a
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .collect();
+    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    if !q.is_finite() {
+        return 0.0;
+    }
+    let on_grid = steps
+        .iter()
+        .take(2000)
+        .all(|d| ((d / q) - (d / q).round()).abs() < 1e-3);
+    if on_grid {
+        q
+    } else {
+        0.0
     }
 }
 
@@ -1143,7 +1181,7 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
 /// Noise models re-fitted to the residual of a selection.
 fn final_noise(d: &Design, s: &Selection) -> [Noise; 6] {
     let block_s = d.ch[0].noise.block_s;
-    std::array::from_fn(|ch| noise::fit(&d.block_residual(&s.fit, ch), block_s))
+    std::array::from_fn(|ch| noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]))
 }
 
 fn dt_of(p: &Prediction) -> f64 {
@@ -1361,8 +1399,8 @@ fn report(
         for i in 0..3 {
             let ch = 3 * triad + i;
             let z = d.block_residual(&sel.fit, ch);
-            let gm = noise::fit(&z, block_s);
-            let wn = noise::fit_white(&z, block_s);
+            let gm = noise::fit(&z, block_s, d.quant[ch]);
+            let wn = noise::fit_white(&z, block_s, d.quant[ch]);
             noise_final.push(gm);
             let mut wz = vec![];
             gm.gains(z.len()).whiten_into(&z, &mut wz);
