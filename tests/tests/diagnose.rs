@@ -419,14 +419,33 @@ fn adis16405_bench_hour_shows_bias_instability() {
 }
 
 #[test]
-fn blind_study_runs_and_scores() {
-    // A small study: one strong effect at 4x, one seed, two nulls.
-    let s = rins::study::run(&[("lever_arm", 0.02)], &[4.0], 1, 5, &mut |_| {}).unwrap();
-    assert_eq!(s.cells.len(), 1);
-    assert_eq!((s.cells[0].detected, s.cells[0].first), (1, 1));
-    assert_eq!(s.null_runs, 2);
+fn blind_study_runs_and_its_mde_is_calibrated() {
+    // One effect, one seed a cell, two nulls: the Fisher MDE is right if
+    // half of it goes unseen (noncentrality a quarter of the 50 % point: a
+    // detection chance well under 1 %) and four times it is always seen.
+    let s = rins::study::run(
+        &["nav440"],
+        &[("lever_arm", Axis::Z, 0.02)],
+        1,
+        2,
+        5,
+        2,
+        &|_| {},
+    )
+    .unwrap();
+    let m = &s.mde[0];
+    println!("{m:?}");
+    assert!(m.mde.is_finite() && m.mde > 0.0 && m.k == 2, "{m:?}");
+    let at = |x: f64| s.cells.iter().find(|c| c.scale == x).unwrap();
+    assert_eq!(at(0.5).detected, 0);
+    assert_eq!((at(4.0).detected, at(4.0).first), (1, 1));
+    assert_eq!(s.null_runs["nav440"], 2);
+    assert_eq!(s.false_alarms["nav440"], 0);
     assert_eq!(s.confusion["lever_arm"]["lever_arm"], 1);
-    let md = rins::study::markdown(&s, &[4.0]);
-    assert!(md.contains("| lever_arm | 100 %"), "{md}");
+    let md = rins::study::markdown(&s);
+    assert!(
+        md.contains("| lever_arm |") && md.contains("false alarms on 2 null runs: 0"),
+        "{md}"
+    );
     assert!(serde_json::to_string(&s).unwrap().contains("false_alarms"));
 }

@@ -1,0 +1,29 @@
+//! `rins diagnose` on a 1 h recording at 100 Hz (the goal: under
+//! 2 s): a NAV440-grade run with bias instability, quantisation and the
+//! default table, reciprocating about z, a lever arm hidden in it.
+
+use core_nav::table::Axis;
+use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use hal_sim::imu::ImuSpec;
+use hal_sim::sim::simulate;
+use rins::diagnose::{run, Options};
+
+fn diagnose_1h(c: &mut Criterion) {
+    let mut cfg = rins::study::background(&ImuSpec::nav440(), Axis::Z, true, 7);
+    cfg.duration_s = 3600.0;
+    let _ = cfg.set_effect("lever_arm", 0.02);
+    let Ok(rec) = simulate(&cfg, &mut |_| {}) else {
+        return;
+    };
+    assert!(rec.imu.len() >= 360_000);
+    c.bench_function("diagnose_1h_100hz", |b| {
+        b.iter(|| run(black_box(&rec), "bench", &Options::default()).map(|d| d.findings.len()))
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(10);
+    targets = diagnose_1h
+}
+criterion_main!(benches);
