@@ -373,9 +373,9 @@ pub fn run(
         match &jobs[i] {
             Job::Cell { cell, .. } => {
                 let c = &mut cells[*cell];
-                let hit = found.iter().any(|e| *e == c.effect);
+                let hit = found.contains(&c.effect);
                 c.detected += usize::from(hit);
-                c.named_or_lookalike += usize::from(hit || alike.iter().any(|e| *e == c.effect));
+                c.named_or_lookalike += usize::from(hit || alike.contains(&c.effect));
                 c.first += usize::from(found.first() == Some(&c.effect));
                 if c.scale == 2.0 || (c.effect == "bias_instability" && c.scale == 1.0) {
                     let top = found.first().cloned().unwrap_or_else(|| "none".into());

@@ -60,27 +60,61 @@ fn part_of(w: f64, a: f64) -> usize {
 /// Amplitudes of harmonics 1..=kmax of `res` against the angle `theta`
 /// (least squares on cos / sin, with an intercept).
 pub fn harmonics(res: &[f64], theta: &[f64], kmax: usize) -> Vec<f64> {
-    let n = res.len().min(theta.len());
+    harmonics_all(&[res], theta, kmax).pop().unwrap_or_default()
+}
+
+/// [`harmonics`] of several series against one angle (one normal matrix).
+pub fn harmonics_all(res: &[&[f64]], theta: &[f64], kmax: usize) -> Vec<Vec<f64>> {
+    let n = res
+        .iter()
+        .map(|r| r.len())
+        .min()
+        .unwrap_or(0)
+        .min(theta.len());
     let m = 1 + 2 * kmax;
     let mut ata = DMatrix::<f64>::zeros(m, m);
-    let mut aty = DVector::<f64>::zeros(m);
-    let mut row = DVector::<f64>::zeros(m);
-    for r in 0..n {
+    let mut aty = DMatrix::<f64>::zeros(m, res.len());
+    let mut row = vec![0.0; m];
+    // At most ~100,000 rows: the amplitudes are a locating measure, and a
+    // stride of a few samples keeps every revolution densely covered.
+    let stride = (n / 100_000).max(1);
+    for r in (0..n).step_by(stride) {
         row[0] = 1.0;
+        // cos / sin of k theta by the angle-addition recurrence.
+        let (s1, c1) = theta[r].sin_cos();
+        let (mut s, mut c) = (s1, c1);
         for k in 1..=kmax {
-            let (s, c) = (k as f64 * theta[r]).sin_cos();
             row[2 * k - 1] = c;
             row[2 * k] = s;
+            let (sn, cn) = (s * c1 + c * s1, c * c1 - s * s1);
+            s = sn;
+            c = cn;
         }
-        ata += &row * row.transpose();
-        aty += &row * res[r];
+        for i in 0..m {
+            let ri = row[i];
+            for j in i..m {
+                ata[(i, j)] += ri * row[j];
+            }
+            for (q, x) in res.iter().enumerate() {
+                aty[(i, q)] += ri * x[r];
+            }
+        }
+    }
+    for i in 0..m {
+        for j in 0..i {
+            ata[(i, j)] = ata[(j, i)];
+        }
     }
     let sol = (ata + DMatrix::identity(m, m) * 1e-9)
         .cholesky()
         .map(|c| c.solve(&aty))
-        .unwrap_or_else(|| DVector::zeros(m));
-    (1..=kmax)
-        .map(|k| sol[2 * k - 1].hypot(sol[2 * k]))
+        .unwrap_or_else(|| DMatrix::zeros(m, res.len()));
+    (0..res.len())
+        .map(|q| {
+            (1..=kmax)
+                .map(|k| sol[(2 * k - 1, q)].hypot(sol[(2 * k, q)]))
+                .collect()
+        })
         .collect()
 }
 

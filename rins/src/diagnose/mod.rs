@@ -346,10 +346,6 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         time_offset_s,
         ..Prediction::default()
     };
-    let n = rec.imu.len();
-    for v in [&mut p.t_s] {
-        v.reserve(n);
-    }
     let mut j = 0usize;
     for r in &rec.imu {
         let tq = r.t_s - time_offset_s;
@@ -535,8 +531,7 @@ impl Design {
                 ));
             }
         }
-        let mut chans = vec![];
-        for (ch, cc) in cols.into_iter().enumerate() {
+        let make = |ch: usize, cc: &Vec<(Owner, Vec<f64>)>| -> ChannelDesign {
             let y: Vec<f64> = blocks(&(0..n).map(|r| p.meas(ch, r)).collect::<Vec<_>>(), len)
                 .iter()
                 .zip(&truth_b[ch])
@@ -584,15 +579,29 @@ impl Design {
                 gram_p.push(sp.transpose() * sp);
                 rows.push(b - a);
             }
-            chans.push(ChannelDesign {
+            ChannelDesign {
                 owners: cc.iter().map(|(o, _)| *o).collect(),
                 gram_w,
                 gram_p,
                 rows,
                 noise: nm,
                 zp,
-            });
-        }
+            }
+        };
+        // The six channels are independent: one thread each (the noise
+        // fit is the larger part of a diagnosis).
+        let chans: Vec<ChannelDesign> = std::thread::scope(|sc| {
+            let handles: Vec<_> = cols
+                .iter()
+                .enumerate()
+                .map(|(ch, cc)| sc.spawn(move || make(ch, cc)))
+                .collect();
+            handles
+                .into_iter()
+                .enumerate()
+                .map(|(ch, h)| h.join().unwrap_or_else(|_| make(ch, &cols[ch])))
+                .collect()
+        });
         Self {
             ch: chans,
             cands,
@@ -966,13 +975,11 @@ fn apply_known(p: &mut Prediction, model: &Model) -> Result<(), String> {
             .into_iter()
             .filter(|c| c.id == id.as_str())
             .collect();
-        let mut used = 0usize;
         for c in &cands {
             let names = c.params(p);
             let terms = c.terms(p);
             for (pi, pname) in names.iter().enumerate() {
                 let Some(v) = params.get(pname) else { continue };
-                used += 1;
                 for t in terms.iter().filter(|t| t.param == pi) {
                     for (r, x) in t.col.iter().enumerate() {
                         if t.ch < 3 {
@@ -991,7 +998,6 @@ fn apply_known(p: &mut Prediction, model: &Model) -> Result<(), String> {
                 all.join(", ")
             ));
         }
-        let _ = used;
     }
     Ok(())
 }
@@ -1167,21 +1173,27 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
         }
     }
     report(
-        rec,
         recording_name,
         &p,
         &d,
         &sel,
         &judged,
         time_offset - dt_known,
-        opts,
     )
 }
 
 /// Noise models re-fitted to the residual of a selection.
 fn final_noise(d: &Design, s: &Selection) -> [Noise; 6] {
     let block_s = d.ch[0].noise.block_s;
-    std::array::from_fn(|ch| noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]))
+    let fit = |ch: usize| noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]);
+    let v: Vec<Noise> = std::thread::scope(|sc| {
+        let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || fit(ch))).collect();
+        hs.into_iter()
+            .enumerate()
+            .map(|(ch, h)| h.join().unwrap_or_else(|_| fit(ch)))
+            .collect()
+    });
+    std::array::from_fn(|ch| v[ch])
 }
 
 fn dt_of(p: &Prediction) -> f64 {
@@ -1195,7 +1207,7 @@ fn dt_of(p: &Prediction) -> f64 {
 
 /// Per-sample residual of the model `fit` (its nominal terms and effects):
 /// the re-simulation. `extra_shift` is a time offset already applied.
-fn sample_residuals(p: &Prediction, d: &Design, fit: &Fit, _extra_shift: f64) -> [Vec<f64>; 6] {
+fn sample_residuals(p: &Prediction, d: &Design, fit: &Fit) -> [Vec<f64>; 6] {
     let n = p.t_s.len();
     let mut out: [Vec<f64>; 6] =
         std::array::from_fn(|ch| (0..n).map(|r| p.meas(ch, r) - p.truth(ch, r)).collect());
@@ -1327,19 +1339,17 @@ fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
 }
 
 fn report(
-    rec: &Recording,
     name: &str,
     p: &Prediction,
     d: &Design,
     sel: &Selection,
     judged: &[(usize, Judged)],
     time_offset_fitted: f64,
-    opts: &Options,
 ) -> Result<Diagnosis, String> {
     let ln_n = (d.rows().max(2) as f64).ln();
     let nominal_fit = d.fit(&[]);
-    let res_before = sample_residuals(p, d, &nominal_fit, 0.0);
-    let res_after = sample_residuals(p, d, &sel.fit, 0.0);
+    let res_before = sample_residuals(p, d, &nominal_fit);
+    let res_after = sample_residuals(p, d, &sel.fit);
     let mut resid_rms = serde_json::Map::new();
     for (ch, nm) in CHANNELS.iter().enumerate() {
         resid_rms.insert((*nm).into(), rms(&res_before[ch]).into());
@@ -1391,6 +1401,19 @@ fn report(
     let len = ((block_s / dt).round() as usize).max(1);
     let mut noise_final = vec![];
     let mut whiteness = vec![];
+    let fits: Vec<(Vec<f64>, Noise, Noise)> = std::thread::scope(|sc| {
+        let one = |ch: usize| {
+            let z = d.block_residual(&sel.fit, ch);
+            let gm = noise::fit(&z, block_s, d.quant[ch]);
+            let wn = noise::fit_white(&z, block_s, d.quant[ch]);
+            (z, gm, wn)
+        };
+        let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || one(ch))).collect();
+        hs.into_iter()
+            .enumerate()
+            .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
+            .collect()
+    });
     for triad in 0..2 {
         let mut params = serde_json::Map::new();
         let (mut chans, mut dbic_sum, mut chi) = (vec![], 0.0, 0.0f64);
@@ -1398,12 +1421,10 @@ fn report(
         let (mut hb, mut ha, mut nr) = (0.0, 0.0, 0.0);
         for i in 0..3 {
             let ch = 3 * triad + i;
-            let z = d.block_residual(&sel.fit, ch);
-            let gm = noise::fit(&z, block_s, d.quant[ch]);
-            let wn = noise::fit_white(&z, block_s, d.quant[ch]);
+            let (z, gm, wn) = (&fits[ch].0, fits[ch].1, fits[ch].2);
             noise_final.push(gm);
             let mut wz = vec![];
-            gm.gains(z.len()).whiten_into(&z, &mut wz);
+            gm.gains(z.len()).whiten_into(z, &mut wz);
             whiteness.push(locate::ljung_box(&wz, 20));
             let dll = gm.loglik - wn.loglik;
             let dbic = -2.0 * dll + 2.0 * (z.len().max(2) as f64).ln();
@@ -1411,7 +1432,7 @@ fn report(
                 continue;
             }
             // Held out: each block predicted from the blocks before it.
-            let innov = gm.gains(z.len()).innovations(&z);
+            let innov = gm.gains(z.len()).innovations(z);
             let mean = z.iter().sum::<f64>() / z.len().max(1) as f64;
             let b2: f64 = z.iter().map(|v| (v - mean).powi(2)).sum();
             let a2: f64 = innov.iter().map(|v| v * v).sum();
@@ -1468,8 +1489,6 @@ fn report(
     findings.sort_by(|a, b| a.0.total_cmp(&b.0));
     let findings: Vec<Finding> = findings.into_iter().map(|(_, f)| f).collect();
     // Not excited by this run.
-    let empty = d.fit(&[]);
-    let _ = empty;
     let mut not_observable = vec![];
     let mut seen: Vec<&str> = vec![];
     for (ci, c) in d.cands.iter().enumerate() {
@@ -1508,7 +1527,6 @@ fn report(
         "findings": findings,
         "unexplained": unexplained,
     });
-    let _ = (rec, opts);
     Ok(Diagnosis {
         json,
         findings,

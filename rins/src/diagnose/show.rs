@@ -179,12 +179,12 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         o,
         "\nresidual rms per sample, before -> after the findings (deg/h, ug):"
     );
-    for ch in 0..6 {
+    for (ch, name) in CHANNELS.iter().enumerate() {
         let (s, _) = eng(ch);
         let _ = writeln!(
             o,
             "  {:<14} {:>10.1} -> {:>10.1}",
-            CHANNELS[ch],
+            name,
             super::rms(&det.res_before[ch]) * s,
             super::rms(&det.res_after[ch]) * s
         );
@@ -278,15 +278,19 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
             log_y: true,
             ..Chart::default()
         };
-        for ch in 0..6 {
+        let refs: Vec<&[f64]> = det
+            .res_before
+            .iter()
+            .chain(det.res_after.iter())
+            .map(Vec::as_slice)
+            .collect();
+        let all = super::locate::harmonics_all(&refs, &det.theta, super::locate::HARMONICS);
+        for (ch, name) in CHANNELS.iter().enumerate() {
             let (s, _) = eng(ch);
-            for (which, res, dashed) in [
-                ("nominal", &det.res_before[ch], false),
-                ("after", &det.res_after[ch], true),
-            ] {
-                let a = super::locate::harmonics(res, &det.theta, super::locate::HARMONICS);
+            for (which, a, dashed) in [("nominal", &all[ch], false), ("after", &all[6 + ch], true)]
+            {
                 let mut se = Series::line(
-                    format!("{} {which}", CHANNELS[ch]),
+                    format!("{name} {which}"),
                     a.iter()
                         .enumerate()
                         .map(|(k, v)| ((k + 1) as f64, (v * s).max(1e-6)))
