@@ -663,6 +663,11 @@ pub struct DiagnoseArgs {
     /// Block length of the regression, s.
     #[arg(long, default_value_t = 0.2)]
     pub block_s: f64,
+    /// Write the re-simulated run here: the same recording with the IMU
+    /// samples the fitted model predicts (nominal terms and every finding,
+    /// no noise), to compare or to diagnose again.
+    #[arg(long)]
+    pub resim: Option<PathBuf>,
 }
 
 /// Runs `rins diagnose`.
@@ -694,6 +699,20 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<()> {
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string_pretty(&d.json)?)?;
         println!("wrote {}", p.display());
+    }
+    if let Some(dir) = &a.resim {
+        let mut sim = rec.clone();
+        let res = &d.details.res_after;
+        for (r, row) in sim.imu.iter_mut().enumerate() {
+            for i in 0..3 {
+                row.gyro_radps[i] -= res[i].get(r).copied().unwrap_or(0.0);
+                row.accel_mps2[i] -= res[3 + i].get(r).copied().unwrap_or(0.0);
+            }
+        }
+        sim.meta.description = Some(format!("rins diagnose: the fitted model of {name}"));
+        sim.write(dir)
+            .map_err(|e| anyhow!("writing {}: {e}", dir.display()))?;
+        println!("wrote {} (the re-simulated run)", dir.display());
     }
     Ok(())
 }

@@ -146,6 +146,37 @@ pub fn locate(p: &Prediction, res: &[Vec<f64>; 6], dt: f64) -> Locate {
             std::array::from_fn(|ch| rms(&sel.iter().map(|&r| res[ch][r]).collect::<Vec<_>>()));
         splits.push(((*label).to_string(), v, sel.len()));
     }
+    // By rate: thirds of the turning samples' |rate|, when the run has
+    // more than one rate.
+    let mut rates: Vec<f64> = (0..n)
+        .filter(|r| matches!(parts[*r], 1 | 2))
+        .map(|r| p.theta[r].1.abs())
+        .collect();
+    rates.sort_by(f64::total_cmp);
+    if let (Some(lo), Some(hi)) = (rates.first(), rates.last()) {
+        if *hi > 1.2 * lo.max(1e-9) {
+            let q1 = rates[rates.len() / 3];
+            let q2 = rates[2 * rates.len() / 3];
+            for (a, b) in [(0.0, q1), (q1, q2), (q2, f64::INFINITY)] {
+                let sel: Vec<usize> = (0..n)
+                    .filter(|r| matches!(parts[*r], 1 | 2))
+                    .filter(|r| (a..b).contains(&p.theta[*r].1.abs()))
+                    .collect();
+                if sel.is_empty() {
+                    continue;
+                }
+                let v: [f64; 6] = std::array::from_fn(|ch| {
+                    rms(&sel.iter().map(|&r| res[ch][r]).collect::<Vec<_>>())
+                });
+                let label = if b.is_finite() {
+                    format!("|rate| {:.0}-{:.0} d/s", a.to_degrees(), b.to_degrees())
+                } else {
+                    format!("|rate| >{:.0} d/s", a.to_degrees())
+                };
+                splits.push((label, v, sel.len()));
+            }
+        }
+    }
     let theta: Vec<f64> = p.theta.iter().map(|t| t.0).collect();
     let span = theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
         - theta.iter().copied().fold(f64::INFINITY, f64::min);

@@ -1129,6 +1129,13 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
     let earth_scale = earth_known.map_or(earth_scale, |w| w / omega);
     let mut p = predict(rec, earth_scale, dt_known);
     apply_known(&mut p, model)?;
+    let blocks_n = (p.t_s.len() - 1) / ((opts.block_s / dt_of(&p)).round() as usize).max(1);
+    if !(opts.block_s.is_finite() && opts.block_s > 0.0) || blocks_n < 50 {
+        return Err(format!(
+            "{blocks_n} blocks of {} s: the regression needs at least 50 (a shorter block or a longer recording)",
+            opts.block_s
+        ));
+    }
     let lib = |p: &Prediction| -> Vec<Candidate> {
         effects::library(p)
             .into_iter()

@@ -192,6 +192,27 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
     o
 }
 
+/// The Allan deviation the noise model predicts at `tau` s: white
+/// (`N^2 / tau`) plus first-order Gauss-Markov (sigma, correlation time
+/// `T`): `2 sigma^2 T / tau [1 - T / (2 tau) (3 - 4 e^(-tau/T) + e^(-2 tau/T))]`,
+/// which rises as `tau` (rate random walk) well below `T` and falls as white
+/// noise well above it.
+pub fn model_adev(n: &super::noise::Noise, tau: f64) -> f64 {
+    let white = n.white_density().powi(2) / tau;
+    let sig2 = n.gm_sigma().powi(2);
+    let tc = n.tau_s();
+    let gm = if n.lambda > 0.0 && tc.is_finite() {
+        let x = tau / tc;
+        2.0 * sig2 * tc / tau * (1.0 - (3.0 - 4.0 * (-x).exp() + (-2.0 * x).exp()) / (2.0 * x))
+    } else if n.lambda > 0.0 {
+        // A random walk: K^2 tau / 3 with K^2 the variance added per second.
+        n.lambda * n.r / n.block_s * tau / 3.0
+    } else {
+        0.0
+    };
+    (white + gm.max(0.0)).sqrt()
+}
+
 /// Writes the plots into `dir`; returns the files written.
 ///
 /// # Errors
@@ -258,9 +279,20 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
                     .filter(|p| p.adev > 0.0)
                     .map(|p| (p.tau_s, p.adev * s))
                     .collect();
+                let taus: Vec<f64> = pts.iter().map(|p| p.0).collect();
                 let mut se = Series::line(format!("{} {which}", CHANNELS[ch]), pts);
                 se.dashed = dashed;
                 a.series.push(se);
+                if which == "after" {
+                    if let Some(n) = det.noise.get(ch) {
+                        let mut m = Series::line(
+                            format!("{} noise model", CHANNELS[ch]),
+                            taus.iter().map(|t| (*t, model_adev(n, *t) * s)).collect(),
+                        );
+                        m.markers = true;
+                        a.series.push(m);
+                    }
+                }
             }
         }
         let p = dir.join(format!("allan_{label}.svg"));
@@ -306,4 +338,42 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
         out.push(p);
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::noise::Noise;
+
+    #[test]
+    fn model_adev_limits() {
+        // White only: N / sqrt(tau).
+        let w = Noise {
+            block_s: 1.0,
+            r: 4.0,
+            lambda: 0.0,
+            phi: 0.0,
+            loglik: 0.0,
+            quant: 0.0,
+        };
+        assert!((model_adev(&w, 4.0) - 1.0).abs() < 1e-12);
+        // Gauss-Markov sigma 1, T = 100 s, no white: at tau >> T it falls as
+        // white noise of density sqrt(2 T) sigma; its peak is ~0.62 sigma
+        // near tau = 1.89 T (the textbook figure, e.g. IEEE Std 952).
+        let phi = (-1.0f64 / 100.0).exp();
+        let g = Noise {
+            block_s: 1.0,
+            r: 1e-12,
+            lambda: (1.0 - phi * phi) / 1e-12,
+            phi,
+            loglik: 0.0,
+            quant: 0.0,
+        };
+        let far = model_adev(&g, 1e6);
+        assert!((far / (200.0f64 / 1e6).sqrt() - 1.0).abs() < 1e-3, "{far}");
+        let peak = (1..400)
+            .map(|k| model_adev(&g, k as f64))
+            .fold(0.0, f64::max);
+        assert!((peak - 0.62).abs() < 0.01, "{peak}");
+    }
 }
