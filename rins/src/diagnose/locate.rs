@@ -239,6 +239,20 @@ pub fn ljung_box(w: &[f64], lags: usize) -> (f64, usize) {
     (n as f64 * (n as f64 + 2.0) * q, lags)
 }
 
+/// Residual sum of squares of `y` on the columns `x` (least squares).
+fn resid_ss(x: &[DVector<f64>], y: &DVector<f64>) -> f64 {
+    let m = x.len();
+    let xtx = DMatrix::from_fn(m, m, |i, j| x[i].dot(&x[j]));
+    let xty = DVector::from_fn(m, |i, _| x[i].dot(y));
+    match (xtx + DMatrix::identity(m, m) * 1e-9).cholesky() {
+        Some(c) => {
+            let beta = c.solve(&xty);
+            (y.norm_squared() - beta.dot(&xty)).max(0.0)
+        }
+        None => y.norm_squared(),
+    }
+}
+
 /// Mismatches left in the final residual that no effect explains: table
 /// angle harmonics and offsets tied to the motion (one direction, rate
 /// changes), each judged on the whitened block means by the same BIC margin
@@ -299,34 +313,48 @@ pub fn unexplained(
             g.whiten_into(&vec![1.0; nb], &mut b);
             b.into_iter().map(|v| v * s)
         });
-        for (where_, cols) in &groups {
-            let m = cols.len() + 1;
-            let mut x = DMatrix::<f64>::zeros(nb, m);
-            x.set_column(0, &one);
-            let mut buf = vec![];
-            for (j, c) in cols.iter().enumerate() {
-                g.whiten_into(&blocks(c, len), &mut buf);
-                for r in 0..nb {
-                    x[(r, j + 1)] = buf[r] * s;
+        // Whitened columns of every group.
+        let mut buf = vec![];
+        let wcols: Vec<Vec<DVector<f64>>> = groups
+            .iter()
+            .map(|(_, cols)| {
+                cols.iter()
+                    .map(|c| {
+                        g.whiten_into(&blocks(c, len), &mut buf);
+                        DVector::from_iterator(nb, buf.iter().map(|v| v * s))
+                    })
+                    .collect()
+            })
+            .collect();
+        // Greedy, as the findings: the strongest group first, the others
+        // judged with it in the base (a harmonic must not also show up as
+        // the direction offsets it leaks into).
+        let mut base: Vec<DVector<f64>> = vec![one.clone()];
+        let mut taken = vec![false; groups.len()];
+        loop {
+            let r0 = resid_ss(&base, &zw);
+            let mut best: Option<(usize, f64)> = None;
+            for (gi, cols) in wcols.iter().enumerate() {
+                if taken[gi] {
+                    continue;
+                }
+                let mut with = base.clone();
+                with.extend(cols.iter().cloned());
+                let dchi = (r0 - resid_ss(&with, &zw)).max(0.0);
+                if -dchi + cols.len() as f64 * ln_n < -BIC_MARGIN
+                    && best.is_none_or(|(_, d)| dchi > d)
+                {
+                    best = Some((gi, dchi));
                 }
             }
-            let xtx = x.transpose() * &x;
-            let xty = x.transpose() * &zw;
-            let Some(ch_) = (xtx.clone() + DMatrix::identity(m, m) * 1e-9).cholesky() else {
-                continue;
-            };
-            let beta = ch_.solve(&xty);
-            let r1 = (&zw - &x * &beta).norm_squared();
-            let mean = zw.dot(&one) / one.norm_squared().max(1e-300);
-            let r0 = (&zw - &one * mean).norm_squared();
-            let dchi = (r0 - r1).max(0.0);
-            if -dchi + cols.len() as f64 * ln_n < -BIC_MARGIN {
-                out.push(Unexplained {
-                    channels: vec![CHANNELS[ch].to_string()],
-                    where_: where_.clone(),
-                    snr: dchi.sqrt(),
-                });
-            }
+            let Some((gi, dchi)) = best else { break };
+            taken[gi] = true;
+            base.extend(wcols[gi].iter().cloned());
+            out.push(Unexplained {
+                channels: vec![CHANNELS[ch].to_string()],
+                where_: groups[gi].0.clone(),
+                snr: dchi.sqrt(),
+            });
         }
     }
     out.sort_by(|a, b| b.snr.total_cmp(&a.snr));
