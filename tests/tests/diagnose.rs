@@ -278,6 +278,14 @@ fn json_matches_the_spec_exactly() {
         .unexplained
         .iter()
         .any(|u| u.where_.starts_with("3x") && u.channels == ["accel_x_mps2"]));
+    // Judged greedily: the harmonic does not leak into offsets as well.
+    assert!(
+        !d.unexplained
+            .iter()
+            .any(|u| u.where_.contains("offset") && u.channels == ["accel_x_mps2"]),
+        "{:?}",
+        d.unexplained
+    );
     let mut got = vec![];
     shape(&d.json, "", &mut got);
     got.sort();
