@@ -72,11 +72,18 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             "no wander".into()
         };
         let (q, lags) = det.whiteness.get(ch).copied().unwrap_or((0.0, 20));
+        // Q is chi^2 with `lags` degrees of freedom when white: beyond 5
+        // sigma the model leaves structure in this channel.
+        let sd = (2.0 * lags as f64).sqrt();
+        let verdict = if q > lags as f64 + 5.0 * sd {
+            "NOT white: structure the model does not hold"
+        } else {
+            "white"
+        };
         let _ = writeln!(
             o,
-            "  {:<14} white {white}, {gm}; whitened Ljung-Box Q({lags}) = {q:.0} (white: ~{lags} +- {:.0})",
+            "  {:<14} white {white}, {gm}; whitened Ljung-Box Q({lags}) = {q:.0} ({verdict}; white is {lags} +- {sd:.0})",
             CHANNELS[ch],
-            (2.0 * lags as f64).sqrt() * 2.0
         );
     }
     let _ = writeln!(o, "\nwhere the nominal residual is (rms, deg/h and ug):");
