@@ -377,7 +377,7 @@ impl PhaseAccumulator {
                 }
             }
             if let Some(sorted) = rms.get_mut(..used) {
-                sorted.sort_unstable_by(|a, b| a.total_cmp(b));
+                insertion_sort(sorted);
                 let median = sorted.get(used / 2).copied().unwrap_or(0.0);
                 let top = sorted.last().copied().unwrap_or(0.0);
                 if used >= 5 && top > 2.0 * median + checks.static_drift_radps {
@@ -665,4 +665,45 @@ pub fn best_averaging_time(
                 .unwrap_or(core::cmp::Ordering::Equal)
         })
         .map(|p| p.tau_s)
+}
+
+/// Sorts a short slice (at most [`MAX_BLOCKS`] values) in place by
+/// `total_cmp`. Not `sort_unstable`: its pattern-defeating quicksort is
+/// ~8 KiB of firmware flash for 128 numbers sorted once at power-up.
+fn insertion_sort(v: &mut [f64]) {
+    for i in 1..v.len() {
+        let mut j = i;
+        while j > 0 {
+            let (Some(a), Some(b)) = (v.get(j - 1).copied(), v.get(j).copied()) else {
+                break;
+            };
+            if a.total_cmp(&b).is_le() {
+                break;
+            }
+            v.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::insertion_sort;
+
+    #[test]
+    fn insertion_sort_agrees_with_the_standard_sort() {
+        // A deterministic sequence with repeats, negatives and zeros.
+        let mut s: u64 = 0x9E37_79B9_7F4A_7C15;
+        for n in [0usize, 1, 2, 7, 128] {
+            let mut v = [0.0f64; 128];
+            for x in v.iter_mut().take(n) {
+                s = s.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                *x = ((s >> 40) % 50) as f64 - 25.0;
+            }
+            let mut w = v;
+            insertion_sort(&mut v[..n]);
+            w[..n].sort_unstable_by(f64::total_cmp);
+            assert_eq!(v, w);
+        }
+    }
 }

@@ -119,7 +119,10 @@ impl Segment {
         }
         let sgn = self.dist.signum();
         let (a, v, tr, tc) = (self.a, self.v, self.t_ramp, self.t_cruise);
-        let tau = tau.clamp(0.0, self.duration);
+        // Not `clamp`: it panics when its bounds are out of order or NaN,
+        // and that panic's message (formatting two f64) costs the firmware
+        // ~12 KiB of float formatting. `max` then `min` never panics.
+        let tau = tau.max(0.0).min(self.duration);
         let (angle, rate, accel) = if tau < tr {
             (0.5 * a * tau * tau, a * tau, a)
         } else if tau < tr + tc {
