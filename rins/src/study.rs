@@ -54,20 +54,13 @@ pub const SCALES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
 /// Multiples of the datasheet bias instability.
 pub const BI_SCALES: [f64; 4] = [0.1, 0.3, 1.0, 3.0];
 
-/// A grade by name.
+/// A grade by name (the `rins simulate --imu` profiles).
 ///
 /// # Errors
 /// An unknown name.
 pub fn grade(name: &str) -> Result<ImuSpec, String> {
-    match name {
-        "nav440" => Ok(ImuSpec::nav440()),
-        "mtig" => Ok(ImuSpec::mtig()),
-        "adis16405" => Ok(ImuSpec::adis16405()),
-        "icm42688" => Ok(ImuSpec::icm42688()),
-        _ => Err(format!(
-            "unknown grade {name:?} (nav440, mtig, adis16405, icm42688)"
-        )),
-    }
+    ImuSpec::by_name(name)
+        .ok_or_else(|| format!("unknown grade {name:?} ({})", ImuSpec::NAMES.join(", ")))
 }
 
 /// One run's background for grade `g` about `axis`.

@@ -7,7 +7,7 @@
 //! table axis (the same in both); `R(theta)` takes `s` to `b`.
 
 use super::Prediction;
-use nalgebra::Vector3;
+use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Which physics a candidate is.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,10 +65,10 @@ const AX: [&str; 3] = ["x", "y", "z"];
 /// terms: nothing in the run drives them.
 pub const MIN_RATE_RADPS: f64 = 0.0873;
 
-/// Vector of `b` expressed in `s` at table angle `th` (rad) about `k`.
+/// Vector of `b` expressed in `s` at table angle `th` (rad) about `k`: the
+/// inverse of the rotation `predict` uses (`R(k, th)` takes `s` to `b`).
 fn to_s(k: &Vector3<f64>, th: f64, v: &Vector3<f64>) -> Vector3<f64> {
-    let (s, c) = th.sin_cos();
-    v * c - k.cross(v) * s + k * (k.dot(v) * (1.0 - c))
+    Rotation3::from_axis_angle(&Unit::new_unchecked(*k), th).inverse_transform_vector(v)
 }
 
 /// The two unit vectors normal to `k` (basis axes of `b`), and their names.

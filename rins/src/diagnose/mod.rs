@@ -1645,20 +1645,10 @@ pub fn fisher(
 /// the noncentral chi^2 (20,001 fixed draws: the median to ~1 %).
 pub fn lambda_50(k: usize, n_rows: usize) -> f64 {
     let thr = k as f64 * (n_rows.max(2) as f64).ln() + BIC_MARGIN;
-    let mut seed = 0x2545_F491_4F6C_DD1Du64;
-    let mut u = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    };
+    let mut rng = hal_sim::rng::Rng::new(0x2545_F491, 0);
     let draws = 20_001;
     let z: Vec<Vec<f64>> = (0..draws)
-        .map(|_| {
-            (0..k.max(1))
-                .map(|_| (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos())
-                .collect()
-        })
+        .map(|_| (0..k.max(1)).map(|_| rng.normal()).collect())
         .collect();
     let frac_above = |lam: f64| {
         let s = lam.sqrt();

@@ -344,18 +344,10 @@ fn fit_plain(z: &[f64], block_s: f64) -> Noise {
 mod tests {
     use super::*;
 
-    /// A seeded normal stream (Box-Muller on a xorshift).
+    /// A seeded normal stream (hal-sim's generator).
     fn normals(seed: u64, n: usize) -> Vec<f64> {
-        let mut s = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
-        let mut u = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            ((s >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
-        (0..n)
-            .map(|_| (-2.0 * u().ln()).sqrt() * (core::f64::consts::TAU * u()).cos())
-            .collect()
+        let mut r = hal_sim::rng::Rng::new(seed, 0);
+        (0..n).map(|_| r.normal()).collect()
     }
 
     #[test]
