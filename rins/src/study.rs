@@ -172,11 +172,7 @@ fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), Str
     let alike = d
         .findings
         .iter()
-        .filter_map(|f| {
-            let i = f.explanation.find("cannot be told apart from ")?;
-            let rest = &f.explanation[i + "cannot be told apart from ".len()..];
-            Some(rest.split_whitespace().next()?.to_string())
-        })
+        .filter_map(|f| f.lookalike.clone())
         .collect();
     Ok((found, alike))
 }

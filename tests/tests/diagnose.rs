@@ -391,7 +391,7 @@ fn adis16405_bench_hour_shows_bias_instability() {
     let rec = Recording::read(&dir).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     let t = std::time::Instant::now();
-    let report = rins::diagnose::diagnose(&rec, "adis16405");
+    let report = run(&rec, "adis16405", &Options::default()).unwrap().json;
     println!("diagnosed 1 h in {:.2} s", t.elapsed().as_secs_f64());
     let findings = report["findings"].as_array().unwrap();
     let bi: Vec<&serde_json::Value> = findings

@@ -555,10 +555,11 @@ impl Design {
             let mut zp = DMatrix::<f64>::zeros(nb, m);
             let mut buf = vec![];
             let scale = 1.0 / nm.r.max(1e-300).sqrt();
-            for (c, (_, col)) in cc
+            // Columns, then y last.
+            for (c, col) in cc
                 .iter()
-                .map(|(o, v)| (o, v.as_slice()))
-                .chain([(&Owner::Nominal(99), y.as_slice())])
+                .map(|(_, v)| v.as_slice())
+                .chain([y.as_slice()])
                 .enumerate()
             {
                 g.whiten_into(col, &mut buf);
@@ -901,6 +902,10 @@ pub struct Finding {
     pub significance: serde_json::Value,
     /// Before / after rms.
     pub fit: serde_json::Value,
+    /// The effect this one cannot be told apart from in this run, if any
+    /// (also in `explanation`; not part of the spec's JSON).
+    #[serde(skip)]
+    pub lookalike: Option<String>,
 }
 
 /// A mismatch no effect explains.
@@ -953,16 +958,6 @@ pub struct Diagnosis {
     pub unexplained: Vec<Unexplained>,
     /// For the text report and the plots.
     pub details: Details,
-}
-
-/// The whole report with the spec's nominal model (`rins-diagnose/1` JSON).
-/// A recording that cannot be diagnosed gives a report with the error in
-/// `error` (see [`run`] for the error as a value).
-pub fn diagnose(rec: &Recording, recording_name: &str) -> serde_json::Value {
-    match run(rec, recording_name, &Options::default()) {
-        Ok(d) => d.json,
-        Err(e) => serde_json::json!({ "format": "rins-diagnose/1", "error": e }),
-    }
 }
 
 /// The known effects' contribution, subtracted from the measurements.
@@ -1256,6 +1251,7 @@ struct Judged {
     snr: f64,
     channels: Vec<usize>,
     explanation: String,
+    lookalike: Option<String>,
     fit: serde_json::Value,
 }
 
@@ -1303,6 +1299,7 @@ fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
         // Look-alikes: a candidate not chosen that, in place of this one,
         // explains as much (within the BIC margin).
         let mut explanation = c.explain().to_string();
+        let mut lookalike = None;
         for (di, dc) in d.cands.iter().enumerate() {
             if dc.id == c.id || sel.set.iter().any(|s| d.cands[*s].id == dc.id) {
                 continue;
@@ -1323,6 +1320,7 @@ fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
                     dbic,
                     effects::separate(c.id, dc.id)
                 );
+                lookalike = Some(dc.id.to_string());
                 break;
             }
         }
@@ -1333,6 +1331,7 @@ fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
                 snr: dchi.sqrt(),
                 channels: chans,
                 explanation,
+                lookalike,
                 fit: serde_json::json!({
                     "residual_rms_before": before,
                     "residual_rms_after": after,
@@ -1395,6 +1394,7 @@ fn report(
                     .collect(),
                 where_: c.where_().into(),
                 explanation: j.explanation.clone(),
+                lookalike: j.lookalike.clone(),
                 parameters: params,
                 significance: serde_json::json!({"delta_bic": j.dbic, "snr": j.snr}),
                 fit: j.fit.clone(),
@@ -1489,6 +1489,7 @@ fn report(
                         "heldout_rms_before": (hb / nr.max(1.0)).sqrt(),
                         "heldout_rms_after": (ha / nr.max(1.0)).sqrt(),
                     }),
+                    lookalike: None,
                 },
             ));
         }
