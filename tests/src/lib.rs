@@ -1,1 +1,4 @@
-//! Scenario tests across the rins crates live in `tests/`.
+//! Scenario tests across the rins crates live in `tests/tests/`; this library
+//! holds what they share: where their reference data is ([`data`]).
+
+pub mod data;

@@ -1,20 +1,23 @@
 //! Allan deviation against Stable32 (the commercial reference program) on
-//! the clock data in `../shared/data/allan_reference_stable32`, confidence
-//! interval coverage by Monte Carlo, and the noise fit on the ADIS16405
-//! bench recording (`../shared/data/adis16405_static`, real data).
+//! the clock data of the external dataset `allan_reference_stable32`,
+//! confidence interval coverage by Monte Carlo, and the noise fit on the
+//! ADIS16405 bench recording (external `adis16405_static`, real data). The
+//! external data is found through `rins_tests::data` (skipped, and said so,
+//! when absent).
 
 use core_nav::allan::{adev, fit_noise, oadev, octave_factors, AdevPoint};
-use std::path::PathBuf;
+use rins_tests::data::external;
+use std::path::{Path, PathBuf};
 
-fn data(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel)
+const STABLE32: &str = "allan_reference_stable32";
+
+fn stable32(test: &str) -> Option<PathBuf> {
+    external(&format!("allan_reference::{test}"), STABLE32, "")
 }
 
-fn numbers(rel: &str) -> Vec<f64> {
-    std::fs::read_to_string(data(rel))
-        .unwrap_or_else(|e| panic!("{rel}: {e}"))
+fn numbers(path: &Path) -> Vec<f64> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .lines()
         .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
         .map(|l| l.trim().parse().unwrap())
@@ -22,9 +25,9 @@ fn numbers(rel: &str) -> Vec<f64> {
 }
 
 /// Stable32 table rows: (AF, sigma, min, max).
-fn table(rel: &str) -> Vec<(usize, f64, f64, f64)> {
-    std::fs::read_to_string(data(rel))
-        .unwrap()
+fn table(path: &Path) -> Vec<(usize, f64, f64, f64)> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .lines()
         .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
         .map(|l| {
@@ -34,9 +37,9 @@ fn table(rel: &str) -> Vec<(usize, f64, f64, f64)> {
         .collect()
 }
 
-fn ocxo() -> Vec<f64> {
+fn ocxo(dir: &Path) -> Vec<f64> {
     // y = (f - 1e7) / 1e7, offset removed before any sum (README pitfall).
-    numbers("allan_reference_stable32/ocxo/ocxo_frequency.txt")
+    numbers(&dir.join("ocxo/ocxo_frequency.txt"))
         .iter()
         .map(|f| (f - 1e7) / 1e7)
         .collect()
@@ -44,8 +47,11 @@ fn ocxo() -> Vec<f64> {
 
 #[test]
 fn overlapping_adev_matches_stable32_all_tau() {
-    let y = ocxo();
-    let rows = table("allan_reference_stable32/ocxo/stable32_oadev_alltau.txt");
+    let Some(dir) = stable32("overlapping_adev_matches_stable32_all_tau") else {
+        return;
+    };
+    let y = ocxo(&dir);
+    let rows = table(&dir.join("ocxo/stable32_oadev_alltau.txt"));
     assert!(rows.len() > 100);
     let mut worst: f64 = 0.0;
     for (m, sigma, _, _) in rows {
@@ -63,8 +69,11 @@ fn overlapping_adev_matches_stable32_all_tau() {
 
 #[test]
 fn non_overlapping_adev_matches_stable32_octaves() {
-    let y = ocxo();
-    for (m, sigma, lo, hi) in table("allan_reference_stable32/ocxo/adev_octave.txt") {
+    let Some(dir) = stable32("non_overlapping_adev_matches_stable32_octaves") else {
+        return;
+    };
+    let y = ocxo(&dir);
+    for (m, sigma, lo, hi) in table(&dir.join("ocxo/adev_octave.txt")) {
         let a = adev(&y, 1.0, m).unwrap();
         // 4 significant digits (AF 2048 has 8 terms: 9.2314e-12 vs 9.2304e-12).
         assert!(
@@ -83,10 +92,10 @@ fn non_overlapping_adev_matches_stable32_octaves() {
         );
     }
     // PHASE.DAT: phase samples, tau0 = 1 s -> frequency y_i = x_{i+1} - x_i.
-    let x = numbers("allan_reference_stable32/phasedat/PHASE.DAT");
+    let x = numbers(&dir.join("phasedat/PHASE.DAT"));
     let yp: Vec<f64> = x.windows(2).map(|w| w[1] - w[0]).collect();
     for file in ["phase_dat_adev_octave.txt", "phase_dat_adev.txt"] {
-        for (m, sigma, _, _) in table(&format!("allan_reference_stable32/phasedat/{file}")) {
+        for (m, sigma, _, _) in table(&dir.join("phasedat").join(file)) {
             let a = adev(&yp, 1.0, m).unwrap();
             assert!(
                 (a.adev / sigma - 1.0).abs() < 1e-4,
@@ -122,7 +131,14 @@ fn confidence_intervals_cover_the_truth_68_percent_of_the_time() {
 #[test]
 fn adis16405_bench_noise_terms() {
     // 1e6 samples x 6 channels, little-endian f32, gyro deg/s, accel g.
-    let raw = std::fs::read(data("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")).unwrap();
+    let Some(path) = external(
+        "allan_reference::adis16405_bench_noise_terms",
+        "adis16405_static",
+        "adis_16405_imu1_f32le_1000000x6.bin",
+    ) else {
+        return;
+    };
+    let raw = std::fs::read(path).unwrap();
     assert_eq!(raw.len(), 24_000_000);
     let col = |c: usize, scale: f64| -> Vec<f64> {
         raw.chunks_exact(24)

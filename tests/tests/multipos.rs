@@ -1,4 +1,5 @@
-//! Multi-position calibration on real recordings (`../shared/data`):
+//! Multi-position calibration on real recordings (bundled in `tests/data`
+//! with their licences):
 //! imu_tk's Xsens session (Tedaldi et al. 2014: accelerometer from static
 //! norms, gyroscope from the gravity directions between rests) and imucal's
 //! Ferraris session (accelerometer from static norms, gyroscope from the
@@ -19,9 +20,7 @@ use nalgebra::{Matrix3, Vector3};
 use std::path::PathBuf;
 
 fn data(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data")
-        .join(rel)
+    rins_tests::data::bundled(rel)
 }
 
 fn columns(rel: &str, sep: char, skip: usize) -> Vec<Vec<f64>> {
