@@ -1,7 +1,9 @@
-//! Table rate control: PI on the rate with feed-forward, an angle loop on
-//! the encoder, and anti-windup; the rate measured by the gyro's table-axis
-//! channel (100 Hz, low noise; the 50 Hz encoder's 16,384 counts per turn
-//! would quantise a rate to 1.1 deg/s).
+//! Table rate control, the one controller of the board (f32, rate from the
+//! gyro's table-axis channel: the 50 Hz encoder's 16,384 counts per turn
+//! would quantise a rate to 1.1 deg/s) and of the simulated lab table's
+//! console (hal-sim, f64, rate from its tachometer): PI on the rate with
+//! feed-forward from the motor model, an angle loop on the encoder, and
+//! anti-windup. It runs at 1 kHz on the board.
 //!
 //! ```text
 //! w_cmd = w_ref + k_angle (theta_ref - theta_enc)
@@ -9,88 +11,97 @@
 //! ```
 //! `u` is the motor voltage; the integrator stops while `u` saturates.
 
-use core_nav::scheme::Reference;
+use crate::real::Real;
+use crate::scheme::Reference;
 
-/// The motor as the controller knows it (the board's table).
+/// The motor as the controller knows it; `hal-sim`'s motor is built from
+/// the same numbers ([`MotorModel::default`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MotorModel {
+pub struct MotorModel<T: Real> {
     /// Inertia, kg m^2.
-    pub inertia: f32,
+    pub inertia: T,
     /// Torque / back-EMF constant, N m/A = V s/rad.
-    pub kt: f32,
+    pub kt: T,
     /// Winding resistance, ohm.
-    pub resistance: f32,
+    pub resistance: T,
     /// Supply, V.
-    pub supply_v: f32,
+    pub supply_v: T,
     /// Viscous friction, N m s/rad.
-    pub viscous: f32,
+    pub viscous: T,
     /// Coulomb friction, N m.
-    pub coulomb: f32,
+    pub coulomb: T,
 }
 
-impl Default for MotorModel {
-    /// The board's direct-drive gimbal motor (hal-sim's default motor).
+impl<T: Real> Default for MotorModel<T> {
+    /// The board's direct-drive gimbal torque motor (representative values:
+    /// 0.4 N m stall at 12 V, 240 rad/s no-load).
     fn default() -> Self {
         Self {
-            inertia: 2e-3,
-            kt: 0.05,
-            resistance: 1.5,
-            supply_v: 12.0,
-            viscous: 2e-4,
-            coulomb: 5e-3,
+            inertia: T::lit(2e-3),
+            kt: T::lit(0.05),
+            resistance: T::lit(1.5),
+            supply_v: T::lit(12.0),
+            viscous: T::lit(2e-4),
+            coulomb: T::lit(5e-3),
         }
     }
 }
 
 /// The rate controller.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RateController {
+pub struct RateController<T: Real> {
     /// Motor model for the feed-forward.
-    pub motor: MotorModel,
+    pub motor: MotorModel<T>,
     /// Rate gain, V per rad/s.
-    pub kp: f32,
+    pub kp: T,
     /// Integral gain, V per rad.
-    pub ki: f32,
+    pub ki: T,
     /// Angle gain, 1/s.
-    pub k_angle: f32,
-    integ: f32,
+    pub k_angle: T,
+    integ: T,
 }
 
-impl RateController {
+impl<T: Real> RateController<T> {
     /// Gains for a `bandwidth_hz` rate loop on `motor` (proportional gain at
     /// the crossover, integral corner a fifth below, angle loop an eighth).
-    /// The loop runs at the IMU rate (100 Hz): keep the bandwidth <= 15 Hz
-    /// (10 ms of delay is 54 deg of phase there).
-    pub fn new(motor: MotorModel, bandwidth_hz: f32) -> Self {
-        let wc = 2.0 * core::f32::consts::PI * bandwidth_hz;
+    /// The board's loop and the simulated console both run at 1 kHz with
+    /// 25 Hz (1 ms of delay costs 9 deg of phase there).
+    pub fn new(motor: MotorModel<T>, bandwidth_hz: T) -> Self {
+        let wc = T::two_pi() * bandwidth_hz;
         let kp = wc * motor.inertia * motor.resistance / motor.kt;
         Self {
             motor,
             kp,
-            ki: kp * wc / 5.0,
-            k_angle: wc / 8.0,
-            integ: 0.0,
+            ki: kp * wc / T::lit(5.0),
+            k_angle: wc / T::lit(8.0),
+            integ: T::zero(),
         }
     }
 
     /// Clears the integrator (motor stopped, new scheme).
     pub fn reset(&mut self) {
-        self.integ = 0.0;
+        self.integ = T::zero();
+    }
+
+    /// The integrator's state, V.
+    pub fn integrator(&self) -> T {
+        self.integ
     }
 
     /// The duty cycle in [-1, 1] (sign = direction) for reference `r`
     /// (angle, rate, acceleration; rad, rad/s, rad/s^2), the encoder's
     /// angle error `angle_err` = reference - measured (rad) and the gyro's
     /// table-axis rate `rate_meas` (rad/s), after `dt` s.
-    pub fn update(&mut self, r: &Reference, angle_err: f32, rate_meas: f32, dt: f32) -> f32 {
+    pub fn update(&mut self, r: &Reference, angle_err: T, rate_meas: T, dt: T) -> T {
         let m = &self.motor;
-        let (w_ref, a_ref) = (r.rate as f32, r.accel as f32);
-        let sgn = if w_ref > 0.0 {
-            1.0
-        } else if w_ref < 0.0 {
-            -1.0
+        let (w_ref, a_ref) = (T::lit(r.rate), T::lit(r.accel));
+        let zero = T::zero();
+        let sgn = if w_ref > zero {
+            T::one()
+        } else if w_ref < zero {
+            -T::one()
         } else {
-            0.0
+            zero
         };
         let ff = m.kt * w_ref
             + m.resistance / m.kt * (m.inertia * a_ref + m.viscous * w_ref + m.coulomb * sgn);
@@ -101,9 +112,9 @@ impl RateController {
         }
         let d = u / m.supply_v;
         if d.is_finite() {
-            d.clamp(-1.0, 1.0)
+            d.max(-T::one()).min(T::one())
         } else {
-            0.0
+            zero
         }
     }
 }

@@ -49,11 +49,13 @@ pub mod align;
 pub mod allan;
 pub mod attitude;
 pub mod calib;
+pub mod control;
 pub mod earth;
 pub mod error;
 pub mod multipos;
 pub mod real;
 pub mod scheme;
+pub mod site;
 pub mod strapdown;
 pub mod table;
 

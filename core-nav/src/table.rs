@@ -32,6 +32,67 @@ impl Axis {
     }
 }
 
+/// Below this table rate (rad/s) the table counts as still: 0.05 deg/s, a
+/// tenth of an encoder count per second at 16,384 counts per turn over a
+/// 10 s stretch, and 50x below the slowest rotation scheme (2.5 deg/s). The
+/// one "is the table still" threshold: calibration's phase finder,
+/// diagnose's motion classes and the firmware's static phase use it.
+pub const STILL_RATE_RADPS: f64 = 0.05 * core::f64::consts::PI / 180.0;
+
+/// Is a table rate (rad/s) still?
+pub fn is_still(rate_radps: f64) -> bool {
+    rate_radps.abs() < STILL_RATE_RADPS
+}
+
+/// An incremental encoder's scale: counts per revolution (lines x 4). The
+/// one home of counts <-> radians.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EncoderScale {
+    /// Counts per revolution.
+    pub counts_per_rev: u32,
+}
+
+impl EncoderScale {
+    /// A scale of `counts_per_rev` counts per turn (0 is taken as 1).
+    pub fn new(counts_per_rev: u32) -> Self {
+        Self {
+            counts_per_rev: counts_per_rev.max(1),
+        }
+    }
+
+    /// Radians per count.
+    pub fn rad_per_count(&self) -> f64 {
+        core::f64::consts::TAU / f64::from(self.counts_per_rev)
+    }
+
+    /// An unwrapped count as an angle, rad (f64: exact to 2^53 counts).
+    pub fn to_rad(&self, counts: i64) -> f64 {
+        counts as f64 * core::f64::consts::TAU / f64::from(self.counts_per_rev)
+    }
+
+    /// A count difference over `dt_s` seconds as a rate, rad/s.
+    pub fn rate(&self, d_counts: f64, dt_s: f64) -> f64 {
+        d_counts / f64::from(self.counts_per_rev) * core::f64::consts::TAU / dt_s
+    }
+
+    /// The count an encoder shows for an angle `rad` (floor: the
+    /// quantisation error is in `[0, 1)` count).
+    pub fn count_floor(&self, rad: f64) -> i64 {
+        libm::floor(rad * f64::from(self.counts_per_rev) / core::f64::consts::TAU) as i64
+    }
+
+    /// The nearest count to an angle `rad` (an angle that came from a count).
+    pub fn count_nearest(&self, rad: f64) -> i64 {
+        libm::round(rad / core::f64::consts::TAU * f64::from(self.counts_per_rev)) as i64
+    }
+
+    /// The 16-bit hardware counter (a wrapping quadrature count) for an
+    /// unwrapped count.
+    pub fn hw_count(counts: i64) -> u16 {
+        counts.rem_euclid(65_536) as u16
+    }
+}
+
 /// `q_s_b = exp(theta k / 2)` for a table angle `theta` (rad, any size: it
 /// is wrapped first).
 pub fn q_s_b<T: Real>(axis: Axis, theta: T) -> Quaternion<T> {
@@ -110,6 +171,12 @@ impl<T: Real> TableAngle<T> {
             turns = turns.saturating_sub(1);
         }
         Self { turns, rad }
+    }
+
+    /// The whole angle in `T`, rad (coarse after many turns in f32: for
+    /// scheme references and rate checks, never for navigation).
+    pub fn to_rad(&self) -> T {
+        self.rad + T::two_pi() * T::lit(self.turns as f64)
     }
 
     /// The whole angle as f64 rad (host output).
@@ -217,11 +284,17 @@ impl CounterUnwrapper {
         Self::default()
     }
 
+    /// The signed count change from hardware read `prev` to `raw` (the
+    /// shorter way round the 16-bit counter).
+    pub fn delta(prev: u16, raw: u16) -> i64 {
+        i64::from(raw.wrapping_sub(prev) as i16)
+    }
+
     /// Takes a hardware read and returns the unwrapped count.
     pub fn update(&mut self, raw: u16) -> i64 {
         match self.last {
             None => self.total = i64::from(raw),
-            Some(prev) => self.total += i64::from(raw.wrapping_sub(prev) as i16),
+            Some(prev) => self.total += Self::delta(prev, raw),
         }
         self.last = Some(raw);
         self.total

@@ -10,20 +10,21 @@
 //! reach its rate or an implausible result restarts the calibration with a
 //! reported reason.
 
-use crate::control::{MotorModel, RateController};
 use crate::faults::{Fault, FaultCounts};
 use crate::icm42688::{DataFault, DataMonitor, RawSample, Sample};
 use crate::telemetry::{
     frame, reason, Command, Decoder, FrameError, Telemetry, MAX_FRAME, MAX_PAYLOAD,
 };
-use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
-use core_nav::calib::{
-    solve, Checks, EarthModel, GyroCalibration, Phase, PhaseAccumulator, Unknowns,
-};
-use core_nav::earth::{earth_rate_n, normal_gravity, GeoPoint};
+use core_nav::attitude::{euler_to_quat, Euler};
+use core_nav::calib::{solve, Checks, GyroCalibration, Phase, PhaseAccumulator, Unknowns};
+use core_nav::control::{MotorModel, RateController};
+use core_nav::earth::GeoPoint;
 use core_nav::scheme::{Limits, Profile, Reference, Scheme};
+use core_nav::site::Site;
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig};
-use core_nav::table::{q_b_n, q_s_b, Axis, CounterUnwrapper, EncoderInterpolator, TableAngle};
+use core_nav::table::{
+    q_b_n, q_s_b, Axis, CounterUnwrapper, EncoderInterpolator, EncoderScale, TableAngle,
+};
 use nalgebra::{Quaternion, Vector3};
 
 /// Everything the board is told at build time.
@@ -48,7 +49,7 @@ pub struct AppConfig {
     /// The rate must be reached within this, s.
     pub spinup_timeout_s: f64,
     /// Motor model and rate-loop bandwidth, Hz.
-    pub motor: MotorModel,
+    pub motor: MotorModel<f32>,
     /// Rate-loop bandwidth, Hz.
     pub bandwidth_hz: f32,
     /// Navigation telemetry every this many navigation steps.
@@ -160,7 +161,7 @@ pub struct App {
     cfg: AppConfig,
     /// Where the board is.
     pub mode: Mode,
-    ctrl: RateController,
+    ctrl: RateController<f32>,
     profile: Profile,
     scheme_t0: Option<(u64, f32)>,
     unwrap: CounterUnwrapper,
@@ -410,10 +411,14 @@ impl App {
         }
     }
 
+    /// The board's site (core-nav's one model of gravity and earth rate).
+    fn site(&self) -> Site {
+        Site::new(self.cfg.lat_deg, self.cfg.height_m)
+    }
+
     fn checks(&self) -> Checks {
-        let s = libm::sin(self.cfg.lat_deg.to_radians());
         Checks {
-            gravity_mps2: normal_gravity(s * s, self.cfg.height_m),
+            gravity_mps2: self.site().gravity_mps2,
             ..Checks::default()
         }
     }
@@ -440,7 +445,7 @@ impl App {
     }
 
     fn start_scheme(&mut self, t_us: u64, angle: TableAngle<f32>) {
-        let a = angle.rad + core::f32::consts::TAU * angle.turns as f32;
+        let a = angle.to_rad();
         self.scheme_t0 = Some((t_us, a));
         self.rate_ok_since = None;
         self.stall_since = None;
@@ -464,14 +469,9 @@ impl App {
         let Some(st) = self.static_phase else {
             return self.restart_calibration(t_us);
         };
-        let lat = self.cfg.lat_deg.to_radians();
         let [r, p, h] = self.cfg.base_deg;
         let base = Euler::<f64>::from_deg(r, p, h);
-        let earth = EarthModel::Known {
-            w_ie_n: earth_rate_n(libm::sin(lat), libm::cos(lat)),
-            c_b_n: quat_to_dcm(&euler_to_quat(&base)),
-            axis: Axis::Z,
-        };
+        let earth = self.site().earth_model(&base, Axis::Z);
         let cal = match solve(
             &[st, rot],
             &earth,
@@ -554,7 +554,7 @@ impl App {
             return;
         };
         let r: Reference = self.profile.at((t_us - t0) as f64 * 1e-6);
-        let a = angle.rad + core::f32::consts::TAU * angle.turns as f32;
+        let a = angle.to_rad();
         let err = r.angle as f32 - (a - a0);
         self.duty = self.ctrl.update(&r, err, self.rate_meas, dt);
     }
@@ -565,10 +565,9 @@ impl App {
     /// a row the new count is accepted (a lasting offset: resync).
     pub fn on_encoder(&mut self, t_us: u64, hw: u16) {
         if let Some((tl, hl)) = self.last_hw {
-            let d = f64::from(hw.wrapping_sub(hl) as i16);
+            let d = CounterUnwrapper::delta(hl, hw) as f64;
             let dt = (t_us.saturating_sub(tl)) as f64 * 1e-6;
-            let rate =
-                d / f64::from(self.cfg.counts_per_rev) * core::f64::consts::TAU / dt.max(1e-6);
+            let rate = EncoderScale::new(self.cfg.counts_per_rev).rate(d, dt.max(1e-6));
             if libm::fabs(rate) > 2.0 * self.cfg.limits.max_rate && self.glitch_run < 3 {
                 self.glitch_run += 1;
                 return self.fault(t_us, Fault::EncoderGlitch);
@@ -610,9 +609,8 @@ impl App {
             return;
         }
         self.rate_window = Some((t_us, counts));
-        let rate = (counts - cw) as f64 / f64::from(self.cfg.counts_per_rev)
-            * core::f64::consts::TAU
-            / ((t_us - tw) as f64 * 1e-6);
+        let rate = EncoderScale::new(self.cfg.counts_per_rev)
+            .rate((counts - cw) as f64, (t_us - tw) as f64 * 1e-6);
         let Some((t0, _)) = self.scheme_t0 else {
             return;
         };

@@ -5,6 +5,10 @@
 //! binary (`main.rs`, RTIC 2) only wires the STM32F405's peripherals to it.
 //!
 //! - [`icm42688`]: the IMU driver, generic over `embedded_hal::spi::SpiDevice`.
+//! - [`app`]: the board's logic: rate control (`core_nav::control`, the
+//!   controller the simulator's console shares), faults, the power-up
+//!   calibration state machine and its flash record, navigation.
+//! - [`replay`]: the QEMU build's input stream.
 //! - [`telemetry`]: framed telemetry and commands (COBS, CRC-16, sequence
 //!   numbers): loss and corruption are counted, never silent.
 //!
@@ -23,7 +27,6 @@
 )]
 
 pub mod app;
-pub mod control;
 pub mod faults;
 pub mod icm42688;
 pub mod replay;

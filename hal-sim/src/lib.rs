@@ -3,15 +3,23 @@
 //! Host-only, `f64` physics. Frames and units as in `core-nav` (its crate
 //! docs) and `shared/spec/recording-v1.md`.
 //!
-//! This first part is the ideal world: a static base with a turntable turning
-//! at a constant rate and an error-free IMU on its axis, whose outputs are the
-//! recording spec's formulas evaluated exactly.
+//! - [`world`]: site (core-nav's), base, table geometry, motor, the lab
+//!   console's servo (core-nav's controller), encoder.
+//! - [`imu`]: the sensor error model and datasheet profiles.
+//! - [`catalogue`]: the diagnose-v1 effect ids, the one list the
+//!   simulator's knobs, diagnose and the study are keyed by.
+//! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]).
+//! - [`dual`]: dual-axis sequences on a tri-axial table.
+//! - [`icm42688`], [`bench`], [`drivers`]: the ICM-42688-P register model,
+//!   the shared bench, embedded-hal 1.0 mock drivers with fault injection.
+//! - [`recording`]: the `rins-recording/1` reader and writer; [`rng`]: the
+//!   seeded generator.
 
 pub mod bench;
+pub mod catalogue;
 pub mod drivers;
 pub mod dual;
 pub mod icm42688;
-pub mod ideal;
 pub mod imu;
 pub mod recording;
 pub mod rng;

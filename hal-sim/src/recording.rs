@@ -63,6 +63,19 @@ pub struct Meta {
     pub encoder_rate_hz: f64,
 }
 
+impl Meta {
+    /// The recording's site: latitude, height, and its measured gravity
+    /// when `meta.toml` has one (else WGS-84 normal gravity).
+    pub fn site(&self) -> core_nav::site::Site {
+        core_nav::site::Site::new(self.latitude_deg, self.height_m).with_gravity(self.gravity_mps2)
+    }
+
+    /// The base attitude (roll, pitch, heading).
+    pub fn base(&self) -> core_nav::attitude::Euler<f64> {
+        core_nav::attitude::Euler::from_deg(self.roll_deg, self.pitch_deg, self.heading_deg)
+    }
+}
+
 impl Default for Meta {
     fn default() -> Self {
         Self {
@@ -103,6 +116,14 @@ pub struct TableRow {
     pub t_s: f64,
     /// Table angle `theta`, rad, unwrapped.
     pub angle_rad: f64,
+}
+
+impl TableRow {
+    /// The mean table rate from `self` to a `later` read, rad/s (the one
+    /// encoder-rate formula; an interval under 1 ns counts as 1 ns).
+    pub fn rate_to(&self, later: &TableRow) -> f64 {
+        (later.angle_rad - self.angle_rad) / (later.t_s - self.t_s).max(1e-9)
+    }
 }
 
 /// A whole recording in memory.

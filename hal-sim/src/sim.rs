@@ -6,6 +6,7 @@
 //! jitter`, encoder reads at `encoder_rate_hz` from the angle at
 //! `t - encoder latency`, quantised to whole counts (not in `ideal`).
 
+use crate::catalogue::EffectId;
 use crate::imu::{ImuModel, ImuSpec};
 use crate::recording::{ImuRow, Meta, Recording, TableRow};
 use crate::rng::Rng;
@@ -127,16 +128,17 @@ fn radial(axis: Axis) -> Vector3<f64> {
 /// Fixed sign pattern for a full g-sensitivity matrix (documented, not random).
 const G_SENS_PATTERN: [[f64; 3]; 3] = [[1.0, -1.0, 1.0], [1.0, 1.0, -1.0], [-1.0, 1.0, 1.0]];
 
-/// The knobs. Diagnose ids first.
+/// The knobs: every diagnose-v1 id ([`EffectId`]) first, then the other
+/// terms of the error model.
 pub const EFFECTS: &[Effect] = &[
     Effect {
-        name: "earth_rate",
+        name: EffectId::EarthRate.as_str(),
         unit: "x Omega_e",
         help: "scale of the earth rate the sensor feels (1 = real earth, 0 = none)",
         apply: |c, v| c.site.earth_rate_scale = v,
     },
     Effect {
-        name: "gyro_g_sensitivity",
+        name: EffectId::GyroGSensitivity.as_str(),
         unit: "rad/s per m/s^2",
         help: "gyro bias G f, G = VALUE x fixed sign pattern on all nine entries",
         apply: |c, v| {
@@ -145,25 +147,25 @@ pub const EFFECTS: &[Effect] = &[
         },
     },
     Effect {
-        name: "gyro_scale_nonlinearity",
+        name: EffectId::GyroScaleNonlinearity.as_str(),
         unit: "1/(rad/s)",
         help: "gyro K2 (rate-squared term), all axes",
         apply: |c, v| c.imu.gyro.k2 = v,
     },
     Effect {
-        name: "gyro_scale_asymmetry",
+        name: EffectId::GyroScaleAsymmetry.as_str(),
         unit: "1",
         help: "gyro scale for positive minus negative rates, all axes",
         apply: |c, v| c.imu.gyro.asymmetry = v,
     },
     Effect {
-        name: "lever_arm",
+        name: EffectId::LeverArm.as_str(),
         unit: "m",
         help: "IMU origin this far from the table axis (radially)",
         apply: |c, v| c.geometry.lever_arm_s = radial(c.geometry.axis) * v,
     },
     Effect {
-        name: "axis_tilt",
+        name: EffectId::AxisTilt.as_str(),
         unit: "rad",
         help: "table axis tilted by this angle (about a perpendicular axis of b)",
         apply: |c, v| {
@@ -172,13 +174,13 @@ pub const EFFECTS: &[Effect] = &[
         },
     },
     Effect {
-        name: "time_offset",
+        name: EffectId::TimeOffset.as_str(),
         unit: "s",
         help: "IMU samples this late relative to their stamps (and the encoder)",
         apply: |c, v| c.imu.latency_s = v,
     },
     Effect {
-        name: "temperature_bias",
+        name: EffectId::TemperatureBias.as_str(),
         unit: "rad/s per degC",
         help: "gyro bias temperature coefficient (all axes), with the warm-up curve",
         apply: |c, v| {
@@ -187,7 +189,7 @@ pub const EFFECTS: &[Effect] = &[
         },
     },
     Effect {
-        name: "bias_instability",
+        name: EffectId::BiasInstability.as_str(),
         unit: "rad/s",
         help: "gyro Gauss-Markov bias sigma (tau 100 s unless bias_tau_s is set)",
         apply: |c, v| {
@@ -198,13 +200,13 @@ pub const EFFECTS: &[Effect] = &[
         },
     },
     Effect {
-        name: "encoder_error",
+        name: EffectId::EncoderError.as_str(),
         unit: "rad",
         help: "once-per-revolution encoder error (eccentricity) amplitude",
         apply: |c, v| c.encoder.eccentricity_rad = v,
     },
     Effect {
-        name: "accel_scale_nonlinearity",
+        name: EffectId::AccelScaleNonlinearity.as_str(),
         unit: "1/(m/s^2)",
         help: "accelerometer K2, all axes",
         apply: |c, v| c.imu.accel.k2 = v,
@@ -497,7 +499,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             hist.push(kin_exact(t));
         } else {
             hist.push(table.kin);
-            let v = servo.update(&cfg.motor, &reference(t), &table.kin, PHYS_DT);
+            let v = servo.update(&reference(t), &table.kin, PHYS_DT);
             table.step(PHYS_DT, v, 0.0);
         }
         let kin_at = |tt: f64| {
@@ -535,8 +537,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 cfg.encoder.shown(kin_at(t_k).theta)
             } else {
                 let th = kin_at((t_k - cfg.encoder.latency_s).max(0.0)).theta;
-                cfg.encoder.count(th) as f64 * core::f64::consts::TAU
-                    / f64::from(cfg.encoder.counts_per_rev)
+                cfg.encoder.angle(th)
             };
             rec.table.push(TableRow {
                 t_s: t_k,

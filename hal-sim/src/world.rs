@@ -15,43 +15,14 @@
 //! ```
 //! with `r_p = c_s_p lever_arm_s`.
 
-use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
-use core_nav::earth::{earth_rate_n, normal_gravity, GeoPoint};
-use core_nav::table::Axis;
+use core_nav::attitude::Euler;
+use core_nav::control::{MotorModel, RateController};
+use core_nav::table::{Axis, EncoderScale};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-/// Where the run happens.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Site {
-    /// Latitude as given, deg (kept for the recording's meta).
-    pub lat_deg: f64,
-    /// Position.
-    pub origin: GeoPoint,
-    /// Gravity magnitude, m/s^2.
-    pub gravity_mps2: f64,
-    /// Multiplies the earth rate the sensor feels (1: the real earth).
-    pub earth_rate_scale: f64,
-}
-
-impl Site {
-    /// A site at latitude / height with WGS-84 normal gravity.
-    pub fn new(lat_deg: f64, height_m: f64) -> Self {
-        let origin = GeoPoint::from_deg(lat_deg, 0.0, height_m);
-        let s = origin.lat_rad.sin();
-        Self {
-            lat_deg,
-            origin,
-            gravity_mps2: normal_gravity(s * s, height_m),
-            earth_rate_scale: 1.0,
-        }
-    }
-
-    /// `w_ie_n`, rad/s (scaled).
-    pub fn w_ie_n(&self) -> Vector3<f64> {
-        let l = self.origin.lat_rad;
-        earth_rate_n(l.sin(), l.cos()) * self.earth_rate_scale
-    }
-}
+/// Where the run happens: core-nav's site (gravity, earth rate, the ideal
+/// sensor), the one home of that physics.
+pub use core_nav::site::Site;
 
 /// A short shake of the base that comes back to where it was: rate and
 /// acceleration are one full sine period each, so attitude and velocity
@@ -147,7 +118,7 @@ pub struct Scene {
 impl Scene {
     /// `c_b_n`.
     pub fn c_b_n(&self) -> Matrix3<f64> {
-        quat_to_dcm(&euler_to_quat(&self.base))
+        core_nav::site::c_b_n(&self.base)
     }
 
     /// True `(w_is_s rad/s, f_s m/s^2)` for platform kinematics `k` at `t_s`.
@@ -161,13 +132,13 @@ impl Scene {
         let (w_bump, a_bump) = self
             .bump
             .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
-        let w = c_n_s * self.site.w_ie_n() + c_p_s * (kt * k.rate) + c_b_s * w_bump;
+        let (w_ideal, f_ideal) = self.site.ideal_imu(&c_n_s, &(c_p_s * (kt * k.rate)));
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
-        let f = c_n_s * Vector3::new(0.0, 0.0, -self.site.gravity_mps2)
-            + c_p_s * a_lever_p
-            + c_b_s * a_bump;
-        (w, f)
+        (
+            w_ideal + c_b_s * w_bump,
+            f_ideal + c_p_s * a_lever_p + c_b_s * a_bump,
+        )
     }
 }
 
@@ -197,16 +168,18 @@ pub struct MotorParams {
 }
 
 impl Default for MotorParams {
-    /// A small direct-drive gimbal torque motor (representative values:
-    /// 0.4 N m stall at 12 V, 240 rad/s no-load), 24-slot cogging.
+    /// The board's motor ([`MotorModel::default`], the numbers the
+    /// controller's feed-forward uses) with 24-slot cogging and 6-cycle
+    /// torque ripple, which the controller does not know.
     fn default() -> Self {
+        let m = MotorModel::<f64>::default();
         Self {
-            inertia: 2e-3,
-            kt: 0.05,
-            resistance: 1.5,
-            supply_v: 12.0,
-            viscous: 2e-4,
-            coulomb: 5e-3,
+            inertia: m.inertia,
+            kt: m.kt,
+            resistance: m.resistance,
+            supply_v: m.supply_v,
+            viscous: m.viscous,
+            coulomb: m.coulomb,
             cogging: vec![(24.0, 2e-3, 0.3)],
             ripple: vec![(6.0, 0.01)],
         }
@@ -214,6 +187,18 @@ impl Default for MotorParams {
 }
 
 impl MotorParams {
+    /// The motor as a controller's feed-forward knows it.
+    pub fn model(&self) -> MotorModel<f64> {
+        MotorModel {
+            inertia: self.inertia,
+            kt: self.kt,
+            resistance: self.resistance,
+            supply_v: self.supply_v,
+            viscous: self.viscous,
+            coulomb: self.coulomb,
+        }
+    }
+
     /// Net torque (N m) at angle `theta`, rate `w`, terminal voltage `v`,
     /// excluding Coulomb friction.
     pub fn torque(&self, theta: f64, w: f64, v: f64) -> f64 {
@@ -305,59 +290,34 @@ impl Table {
     }
 }
 
-/// The lab table's own servo (the console of a rate table): rate PI with
-/// feed-forward and an angle loop, on the table's true state (its own
-/// tachometer). The firmware's controller replaces it in closed-loop runs.
+/// The lab table's own servo (the console of a rate table): the board's
+/// controller ([`RateController`], one controller for both) closed on the
+/// table's true state (its own tachometer). The firmware replaces it in
+/// closed-loop runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Servo {
-    /// Rate proportional gain, V per rad/s.
-    pub kp: f64,
-    /// Rate integral gain, V per rad.
-    pub ki: f64,
-    /// Angle loop gain, 1/s (rate correction per rad of angle error).
-    pub k_angle: f64,
-    /// Integrator state, V.
-    pub integ: f64,
+    /// The controller (gains public: kp V per rad/s, ki V per rad, k_angle 1/s).
+    pub ctrl: RateController<f64>,
 }
 
 impl Servo {
-    /// Gains for a ~25 Hz rate loop on `motor` (a lab rate table's console).
+    /// Gains for a 25 Hz rate loop on `motor` (a lab rate table's console).
     pub fn for_motor(m: &MotorParams) -> Self {
         Self::with_bandwidth(m, 25.0)
     }
 
-    /// Gains for a rate loop of `bandwidth_hz` on `motor`: proportional gain
-    /// puts the crossover there, the integral corner a fifth below, the
-    /// angle loop an eighth.
+    /// Gains for a rate loop of `bandwidth_hz` on `motor`.
     pub fn with_bandwidth(m: &MotorParams, bandwidth_hz: f64) -> Self {
-        let wc = core::f64::consts::TAU * bandwidth_hz;
-        let kp = wc * m.inertia * m.resistance / m.kt;
         Self {
-            kp,
-            ki: kp * wc / 5.0,
-            k_angle: wc / 8.0,
-            integ: 0.0,
+            ctrl: RateController::new(m.model(), bandwidth_hz),
         }
     }
 
-    /// Voltage for reference `r` given the table state `k`, after `dt` s.
-    pub fn update(
-        &mut self,
-        m: &MotorParams,
-        r: &core_nav::scheme::Reference,
-        k: &Kinematics,
-        dt: f64,
-    ) -> f64 {
-        let ff = m.kt * r.rate
-            + m.resistance / m.kt
-                * (m.inertia * r.accel + m.viscous * r.rate + m.coulomb * r.rate.signum());
-        let e = r.rate + self.k_angle * (r.angle - k.theta) - k.rate;
-        let u = ff + self.kp * e + self.integ;
-        // Anti-windup: integrate only while the output is not saturated.
-        if u.abs() < m.supply_v {
-            self.integ += self.ki * e * dt;
-        }
-        u.clamp(-m.supply_v, m.supply_v)
+    /// Terminal voltage (V) for reference `r` given the table state `k`,
+    /// after `dt` s.
+    pub fn update(&mut self, r: &core_nav::scheme::Reference, k: &Kinematics, dt: f64) -> f64 {
+        let duty = self.ctrl.update(r, r.angle - k.theta, k.rate, dt);
+        duty * self.ctrl.motor.supply_v
     }
 }
 
@@ -396,12 +356,23 @@ impl EncoderSpec {
     /// Unwrapped count for platform angle `theta` (floor: the quantisation
     /// error is in `[0, 1)` count).
     pub fn count(&self, theta: f64) -> i64 {
-        (self.shown(theta) * f64::from(self.counts_per_rev) / core::f64::consts::TAU).floor() as i64
+        self.scale().count_floor(self.shown(theta))
+    }
+
+    /// The counts <-> radians scale (core-nav's, the one home).
+    pub fn scale(&self) -> EncoderScale {
+        EncoderScale::new(self.counts_per_rev)
+    }
+
+    /// The angle a recording stores for platform angle `theta` (rad): the
+    /// quantised count in radians.
+    pub fn angle(&self, theta: f64) -> f64 {
+        self.scale().to_rad(self.count(theta))
     }
 
     /// The 16-bit hardware counter for an unwrapped count.
     pub fn hw_count(count: i64) -> u16 {
-        count.rem_euclid(65_536) as u16
+        EncoderScale::hw_count(count)
     }
 }
 

@@ -27,7 +27,7 @@ fn commanded_30_dps_settles_and_holds_with_the_predicted_cogging_ripple() {
     let mut settled_at = None;
     while t < 12.0 {
         let r = profile.at(t);
-        let v = servo.update(&m, &r, &table.kin, dt);
+        let v = servo.update(&r, &table.kin, dt);
         table.step(dt, v, 0.0);
         t += dt;
         if settled_at.is_none() && t > 0.3 && (table.kin.rate / rate - 1.0).abs() < 0.02 {
@@ -47,7 +47,7 @@ fn commanded_30_dps_settles_and_holds_with_the_predicted_cogging_ripple() {
     let z = jw * m.inertia
         + m.viscous
         + kt * kt / r_w
-        + (kt / r_w) * (servo.kp + servo.ki / jw) * (1.0 + servo.k_angle / jw);
+        + (kt / r_w) * (servo.ctrl.kp + servo.ctrl.ki / jw) * (1.0 + servo.ctrl.k_angle / jw);
     let predicted = 2e-3 / z.norm();
     // Measured: least-squares sinusoid at the cogging phase 24 theta.
     let (mut ss, mut sc, mut n) = (0.0, 0.0, 0.0);

@@ -3,12 +3,10 @@
 //! core-nav's calibration on them.
 
 use anyhow::{anyhow, bail, Result};
-use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
 use core_nav::calib::{
     solve, CalibError, Checks, EarthModel, GyroCalibration, Phase, PhaseAccumulator, Unknowns,
 };
-use core_nav::earth::{earth_rate_n, normal_gravity};
-use core_nav::table::{EncoderInterpolator, TableAngle};
+use core_nav::table::{is_still, EncoderInterpolator, TableAngle};
 use hal_sim::recording::{axis_name, parse_axis, Recording};
 use nalgebra::Vector3;
 use serde_json::{json, Value};
@@ -34,14 +32,13 @@ pub fn segments(rec: &Recording, min_s: f64, trim_s: f64) -> Vec<Segment> {
     let rate = |i: usize| -> Option<f64> {
         let a = t.get(i.checked_sub(half)?)?;
         let b = t.get(i + half)?;
-        Some((b.angle_rad - a.angle_rad) / (b.t_s - a.t_s))
+        Some(a.rate_to(b))
     };
     let mut out = vec![];
     let mut cur: Option<(f64, f64, f64)> = None; // (t0, t_last, rate0)
-    let static_lim = 0.05f64.to_radians();
     let close = |r: f64, r0: f64| {
-        if r0.abs() < static_lim {
-            r.abs() < static_lim
+        if is_still(r0) {
+            is_still(r)
         } else {
             (r - r0).abs() < (0.01 * r0.abs()).max(0.1f64.to_radians())
         }
@@ -75,8 +72,8 @@ pub fn segments(rec: &Recording, min_s: f64, trim_s: f64) -> Vec<Segment> {
         let a = t.iter().find(|r| r.t_s >= s.t0_s);
         let b = t.iter().rev().find(|r| r.t_s <= s.t1_s);
         if let (Some(a), Some(b)) = (a, b) {
-            let r = (b.angle_rad - a.angle_rad) / (b.t_s - a.t_s).max(1e-9);
-            s.rate_radps = if r.abs() < static_lim { 0.0 } else { r };
+            let r = a.rate_to(b);
+            s.rate_radps = if is_still(r) { 0.0 } else { r };
         }
     }
     out
@@ -116,7 +113,7 @@ pub fn moves(rec: &Recording, t0_s: f64, t1_s: f64) -> Vec<Segment> {
             (dt > 1.0).then(|| Segment {
                 t0_s: ra.t_s,
                 t1_s: rb.t_s,
-                rate_radps: (rb.angle_rad - ra.angle_rad) / dt,
+                rate_radps: ra.rate_to(rb),
             })
         })
         .collect()
@@ -198,26 +195,13 @@ pub struct Result_ {
 /// The earth model for a recording (latitude, base attitude).
 pub fn earth_of(rec: &Recording) -> EarthModel {
     let m = &rec.meta;
-    let lat = m.latitude_deg.to_radians();
-    EarthModel::Known {
-        w_ie_n: earth_rate_n(lat.sin(), lat.cos()),
-        c_b_n: quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(
-            m.roll_deg,
-            m.pitch_deg,
-            m.heading_deg,
-        ))),
-        axis: m.axis,
-    }
+    m.site().earth_model(&m.base(), m.axis)
 }
 
 /// The checks for a recording (gravity from meta or normal gravity).
 pub fn checks_of(rec: &Recording) -> Checks {
-    let m = &rec.meta;
-    let s = m.latitude_deg.to_radians().sin();
     Checks {
-        gravity_mps2: m
-            .gravity_mps2
-            .unwrap_or_else(|| normal_gravity(s * s, m.height_m)),
+        gravity_mps2: rec.meta.site().gravity_mps2,
         ..Checks::default()
     }
 }

@@ -4,7 +4,7 @@ use crate::{progress_bar, read_recording, write_file};
 use anyhow::{anyhow, bail, Context, Result};
 use core_nav::calib::{Checks, GyroCalibration, PhaseAccumulator};
 use core_nav::scheme::Scheme;
-use core_nav::table::{Axis, TableAngle};
+use core_nav::table::{Axis, EncoderScale, TableAngle};
 use hal_sim::imu::ImuSpec;
 use hal_sim::recording::Recording;
 use hal_sim::sim::{simulate, SimConfig};
@@ -582,7 +582,7 @@ pub fn qemu_replay(a: &QemuReplayArgs) -> Result<()> {
         .rev()
         .find(|w| w[1].angle_rad != w[0].angle_rad)
     {
-        Some(w) => (w[1].angle_rad - w[0].angle_rad) / (w[1].t_s - w[0].t_s),
+        Some(w) => w[0].rate_to(&w[1]),
         None => bail!("the table never turns: the board's calibration needs rotation"),
     };
     let mut header = Header {
@@ -603,13 +603,11 @@ pub fn qemu_replay(a: &QemuReplayArgs) -> Result<()> {
             accel: r.accel_mps2.map(|x| x as f32),
             temp: r.temp_c.unwrap_or(25.0) as f32,
         })
-        .chain(rec.table.iter().map(|r| {
-            Event::Encoder {
-                t_us: (r.t_s * 1e6).round() as u64,
-                hw: ((r.angle_rad / core::f64::consts::TAU * f64::from(a.counts_per_rev)).round()
-                    as i64)
-                    .rem_euclid(65_536) as u16,
-            }
+        .chain(rec.table.iter().map(|r| Event::Encoder {
+            t_us: (r.t_s * 1e6).round() as u64,
+            hw: EncoderScale::hw_count(
+                EncoderScale::new(a.counts_per_rev).count_nearest(r.angle_rad),
+            ),
         }))
         .collect();
     // Encoder before IMU at the same time (the board reads it first).
@@ -752,7 +750,7 @@ pub fn study(a: &StudyArgs) -> Result<()> {
     let grades: Vec<&str> = a.grades.iter().map(String::as_str).collect();
     let s = rins::study::run(
         &grades,
-        rins::study::EFFECTS,
+        &rins::study::effects(),
         a.runs,
         a.nulls,
         a.seed,

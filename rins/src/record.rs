@@ -7,6 +7,7 @@
 //! times are the ends of the intervals. Encoder frames carry the unwrapped
 //! count; the angle is `count x 2 pi / counts_per_rev`.
 
+use core_nav::table::EncoderScale;
 use firmware::telemetry::{Decoder, LinkStats, Telemetry, MAX_PAYLOAD};
 use hal_sim::recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
 
@@ -80,7 +81,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                     r.out_of_order += 1;
                     continue;
                 }
-                let angle_rad = counts as f64 * core::f64::consts::TAU / f64::from(counts_per_rev);
+                let angle_rad = EncoderScale::new(counts_per_rev).to_rad(counts);
                 r.recording.table.push(TableRow { t_s, angle_rad });
             }
             Telemetry::Nav { t_us, p_n, .. } => r.nav.push((t_us, p_n)),

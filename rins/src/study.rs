@@ -25,6 +25,7 @@ use crate::diagnose::{fisher, lambda_50, run as diagnose_run, Options};
 use core_nav::earth::EARTH_RATE_RADPS;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
+use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, SimConfig};
 use serde::Serialize;
@@ -32,22 +33,37 @@ use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-/// Effects studied, the table axis their run turns about, and a reference
-/// magnitude (SI, the `--effect` unit; earth_rate in rad/s of extra rate)
-/// from which the MDE is scaled.
-pub const EFFECTS: &[(&str, Axis, f64)] = &[
-    ("earth_rate", Axis::Z, 2e-5),
-    ("lever_arm", Axis::Z, 0.02),
-    ("time_offset", Axis::Z, 0.002),
-    ("gyro_scale_nonlinearity", Axis::Z, 0.003),
-    ("gyro_scale_asymmetry", Axis::Z, 1e-3),
-    ("axis_tilt", Axis::Z, 2e-3),
-    ("encoder_error", Axis::Z, 2e-4),
-    ("temperature_bias", Axis::Z, 2e-5),
-    ("gyro_g_sensitivity", Axis::Y, 2e-4),
-    ("accel_scale_nonlinearity", Axis::Y, 2e-4),
-    ("bias_instability", Axis::Z, 1.0),
-];
+/// The table axis an effect's run turns about and a reference magnitude
+/// (SI, the `--effect` unit; earth_rate in rad/s of extra rate) from which
+/// the MDE is scaled. Every catalogue id is studied (the match is
+/// exhaustive: a new id must say how it is studied).
+pub fn scenario(id: EffectId) -> (Axis, f64) {
+    match id {
+        EffectId::EarthRate => (Axis::Z, 2e-5),
+        EffectId::LeverArm => (Axis::Z, 0.02),
+        EffectId::TimeOffset => (Axis::Z, 0.002),
+        EffectId::GyroScaleNonlinearity => (Axis::Z, 0.003),
+        EffectId::GyroScaleAsymmetry => (Axis::Z, 1e-3),
+        EffectId::AxisTilt => (Axis::Z, 2e-3),
+        EffectId::EncoderError => (Axis::Z, 2e-4),
+        EffectId::TemperatureBias => (Axis::Z, 2e-5),
+        // Excited only with gravity across the table axis: a horizontal axis.
+        EffectId::GyroGSensitivity => (Axis::Y, 2e-4),
+        EffectId::AccelScaleNonlinearity => (Axis::Y, 2e-4),
+        EffectId::BiasInstability => (Axis::Z, 1.0),
+    }
+}
+
+/// Every effect studied with its scenario.
+pub fn effects() -> Vec<(EffectId, Axis, f64)> {
+    EffectId::ALL
+        .into_iter()
+        .map(|e| {
+            let (axis, reference) = scenario(e);
+            (e, axis, reference)
+        })
+        .collect()
+}
 
 /// Multiples of the MDE.
 pub const SCALES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
@@ -90,15 +106,15 @@ pub fn background(g: &ImuSpec, axis: Axis, wander: bool, seed: u64) -> SimConfig
 
 /// Puts `effect` at `mag` into `c` (earth_rate: `mag` rad/s more than the
 /// earth's; bias_instability: `mag` x the grade's value).
-fn inject(c: &mut SimConfig, g: &ImuSpec, effect: &str, mag: f64) -> Result<(), String> {
+fn inject(c: &mut SimConfig, g: &ImuSpec, effect: EffectId, mag: f64) -> Result<(), String> {
     match effect {
-        "earth_rate" => c.set_effect("earth_rate", 1.0 + mag / EARTH_RATE_RADPS),
-        "bias_instability" => {
+        EffectId::EarthRate => c.set_effect(effect.as_str(), 1.0 + mag / EARTH_RATE_RADPS),
+        EffectId::BiasInstability => {
             c.imu.gyro.bias_instability = g.gyro.bias_instability * mag;
             c.imu.gyro.bi_tau_s = g.gyro.bi_tau_s;
             Ok(())
         }
-        _ => c.set_effect(effect, mag),
+        _ => c.set_effect(effect.as_str(), mag),
     }
 }
 
@@ -166,13 +182,14 @@ fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), Str
     let found = d
         .findings
         .iter()
-        .map(|f| f.effect.clone())
-        .filter(|e| keep_bi || e != "bias_instability")
+        .map(|f| f.effect)
+        .filter(|e| keep_bi || *e != EffectId::BiasInstability)
+        .map(|e| e.as_str().to_string())
         .collect();
     let alike = d
         .findings
         .iter()
-        .filter_map(|f| f.lookalike.clone())
+        .filter_map(|f| f.lookalike.map(|e| e.as_str().to_string()))
         .collect();
     Ok((found, alike))
 }
@@ -184,7 +201,7 @@ fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), Str
 pub fn mde(
     g: &ImuSpec,
     gname: &str,
-    effect: &str,
+    effect: EffectId,
     axis: Axis,
     reference: f64,
 ) -> Result<Mde, String> {
@@ -209,7 +226,7 @@ pub fn mde(
     };
     Ok(Mde {
         grade: gname.into(),
-        effect: effect.into(),
+        effect: effect.as_str().into(),
         k,
         lambda_ref: lam,
         lambda_50: l50,
@@ -230,7 +247,7 @@ enum Job {
 /// A simulation failure or an unknown grade.
 pub fn run(
     grades: &[&str],
-    effects: &[(&str, Axis, f64)],
+    effects: &[(EffectId, Axis, f64)],
     runs: usize,
     nulls: usize,
     seed: u64,
@@ -242,22 +259,22 @@ pub fn run(
     let mut mdes = vec![];
     for (gi, g) in specs.iter().enumerate() {
         for (e, axis, reference) in effects {
-            if *e == "bias_instability" {
+            if *e == EffectId::BiasInstability {
                 continue;
             }
-            mdes.push(mde(g, grades[gi], e, *axis, *reference)?);
+            mdes.push(mde(g, grades[gi], *e, *axis, *reference)?);
         }
     }
     let mut cells = vec![];
     let mut meta = vec![]; // (grade index, effect, axis, scale)
     for (gi, g) in specs.iter().enumerate() {
         for (e, axis, _) in effects {
-            let (scales, base): (&[f64], f64) = if *e == "bias_instability" {
+            let (scales, base): (&[f64], f64) = if *e == EffectId::BiasInstability {
                 (&BI_SCALES, 1.0)
             } else {
                 let m = mdes
                     .iter()
-                    .find(|m| m.grade == grades[gi] && m.effect == *e)
+                    .find(|m| m.grade == grades[gi] && m.effect == e.as_str())
                     .map_or(f64::INFINITY, |m| m.mde);
                 (&SCALES, m)
             };
@@ -265,14 +282,14 @@ pub fn run(
                 continue;
             }
             for s in scales {
-                let magnitude = if *e == "bias_instability" {
+                let magnitude = if *e == EffectId::BiasInstability {
                     g.gyro.bias_instability * s
                 } else {
                     base * s
                 };
                 cells.push(Cell {
                     grade: grades[gi].into(),
-                    effect: (*e).into(),
+                    effect: e.as_str().into(),
                     scale: *s,
                     magnitude,
                     runs,
@@ -284,7 +301,7 @@ pub fn run(
                     gi,
                     *e,
                     *axis,
-                    if *e == "bias_instability" {
+                    if *e == EffectId::BiasInstability {
                         *s
                     } else {
                         base * s
@@ -324,9 +341,9 @@ pub fn run(
                 let out = match job {
                     Job::Cell { cell, seed } => {
                         let (gi, e, axis, mag) = meta[*cell];
-                        let mut c = background(&specs[gi], axis, e != "bias_instability", *seed);
-                        inject(&mut c, &specs[gi], e, mag)
-                            .and_then(|()| named(&c, e == "bias_instability"))
+                        let bi = e == EffectId::BiasInstability;
+                        let mut c = background(&specs[gi], axis, !bi, *seed);
+                        inject(&mut c, &specs[gi], e, mag).and_then(|()| named(&c, bi))
                     }
                     Job::Null { grade, seed } => {
                         let axis = if seed % 2 == 0 { Axis::Z } else { Axis::Y };

@@ -249,15 +249,36 @@ fn shape(v: &serde_json::Value, path: &str, out: &mut Vec<String>) {
 }
 
 #[test]
-fn json_matches_the_spec_exactly() {
-    let spec = std::fs::read_to_string(
-        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/spec/diagnose-v1.md"),
-    )
-    .unwrap();
+fn json_example_copy_equals_the_spec() {
+    let Some(spec) = rins_tests::data::external(
+        "diagnose::json_example_copy_equals_the_spec",
+        "../spec",
+        "diagnose-v1.md",
+    ) else {
+        return;
+    };
+    let spec = std::fs::read_to_string(spec).unwrap();
     let a = spec.find("```json").unwrap() + 7;
     let b = a + spec[a..].find("```").unwrap();
-    let example: serde_json::Value = serde_json::from_str(&spec[a..b]).unwrap();
+    let from_spec: serde_json::Value = serde_json::from_str(&spec[a..b]).unwrap();
+    let copy: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(rins_tests::data::bundled("diagnose-v1-example.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        copy, from_spec,
+        "tests/data/diagnose-v1-example.json is stale: copy it from shared/spec/diagnose-v1.md"
+    );
+}
+
+#[test]
+fn json_matches_the_spec_exactly() {
+    // The spec's example, as copied into tests/data (the copy is checked
+    // against shared/spec by `json_example_copy_equals_the_spec`).
+    let example: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(rins_tests::data::bundled("diagnose-v1-example.json")).unwrap(),
+    )
+    .unwrap();
     let mut want = vec![];
     shape(&example, "", &mut want);
     want.sort();
@@ -293,9 +314,8 @@ fn json_matches_the_spec_exactly() {
     want.dedup();
     assert_eq!(got, want);
     // Ids, channels and units as the spec says.
-    let ids = rins::diagnose::EFFECT_IDS;
     for f in d.json["findings"].as_array().unwrap() {
-        assert!(ids.contains(&f["effect"].as_str().unwrap()));
+        assert!(hal_sim::catalogue::EffectId::parse(f["effect"].as_str().unwrap()).is_some());
         for ch in f["channels"].as_array().unwrap() {
             assert!(rins::diagnose::CHANNELS.contains(&ch.as_str().unwrap()));
         }
@@ -343,12 +363,17 @@ fn bad_recordings_are_errors() {
 
 #[test]
 fn adis16405_bench_hour_shows_bias_instability() {
-    // The real ADIS16405 recording (../shared/data), written out as a
+    // The real ADIS16405 recording (external data), written out as a
     // rins-recording/1 (static, table still; gyro deg/s, accel g; site and
     // heading not recorded: the nominal bias absorbs the earth rate).
     use hal_sim::recording::{ImuRow, Meta, Recording, TableRow};
-    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/adis16405_static/adis_16405_imu1_f32le_1000000x6.bin");
+    let Some(path) = rins_tests::data::external(
+        "diagnose::adis16405_bench_hour_shows_bias_instability",
+        "adis16405_static",
+        "adis_16405_imu1_f32le_1000000x6.bin",
+    ) else {
+        return;
+    };
     let raw = std::fs::read(path).unwrap();
     let f = |row: &[u8], c: usize| {
         f64::from(f32::from_le_bytes(
@@ -433,7 +458,7 @@ fn blind_study_runs_and_its_mde_is_calibrated() {
     // detection chance well under 1 %) and four times it is always seen.
     let s = rins::study::run(
         &["nav440"],
-        &[("lever_arm", Axis::Z, 0.02)],
+        &[(hal_sim::catalogue::EffectId::LeverArm, Axis::Z, 0.02)],
         1,
         2,
         5,

@@ -7,6 +7,7 @@
 //! table axis (the same in both); `R(theta)` takes `s` to `b`.
 
 use super::Prediction;
+use hal_sim::catalogue::EffectId;
 use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Which physics a candidate is.
@@ -43,7 +44,7 @@ pub enum Kind {
 #[derive(Clone, Debug)]
 pub struct Candidate {
     /// Effect id (diagnose-v1).
-    pub id: &'static str,
+    pub id: EffectId,
     /// Its physics.
     pub kind: Kind,
 }
@@ -330,19 +331,20 @@ pub fn deriv(v: &[Vector3<f64>], t: &[f64], r: usize, i: usize) -> f64 {
 }
 
 /// The experiment that tells two effects apart when a run cannot.
-pub fn separate(a: &str, b: &str) -> String {
-    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
-    if pair("gyro_scale_nonlinearity", "gyro_scale_asymmetry") {
+pub fn separate(a: EffectId, b: EffectId) -> String {
+    use EffectId::*;
+    let pair = |x: EffectId, y: EffectId| (a == x && b == y) || (a == y && b == x);
+    if pair(GyroScaleNonlinearity, GyroScaleAsymmetry) {
         "run at two or more rates: a rate-squared term grows with the rate squared, an asymmetry in proportion to it".into()
-    } else if pair("gyro_g_sensitivity", "gyro_scale_nonlinearity") {
+    } else if pair(GyroGSensitivity, GyroScaleNonlinearity) {
         "put the IMU on the table axis (no centripetal acceleration) or turn the axis horizontal so gravity alone excites the g-sensitivity".into()
-    } else if pair("axis_tilt", "earth_rate") {
+    } else if pair(AxisTilt, EarthRate) {
         "repeat at another heading or reverse the rotation: the earth rate's 1x harmonic stays fixed in the earth frame, a tilt's on the accelerometers follows the base".into()
-    } else if pair("time_offset", "encoder_error") {
+    } else if pair(TimeOffset, EncoderError) {
         "turn at a steady rate for whole revolutions (encoder error) and reverse often (time offset)".into()
-    } else if pair("time_offset", "lever_arm") {
+    } else if pair(TimeOffset, LeverArm) {
         "ramp the rate at two accelerations: a time offset follows the rate change, a lever arm its square".into()
-    } else if a.starts_with("temperature") || b.starts_with("temperature") {
+    } else if a == TemperatureBias || b == TemperatureBias {
         "record from a cold start with the temperature, or heat the sensor while the table turns"
             .into()
     } else {
@@ -355,24 +357,24 @@ pub fn separate(a: &str, b: &str) -> String {
 pub fn library(p: &Prediction) -> Vec<Candidate> {
     let c = |id, kind| Candidate { id, kind };
     let mut v = vec![
-        c("earth_rate", Kind::EarthRate),
-        c("gyro_g_sensitivity", Kind::GSens),
-        c("gyro_scale_nonlinearity", Kind::GyroK2),
-        c("gyro_scale_asymmetry", Kind::GyroAsym),
-        c("lever_arm", Kind::Lever),
-        c("axis_tilt", Kind::Tilt),
-        c("time_offset", Kind::TimeOffset),
-        c("encoder_error", Kind::Encoder),
-        c("accel_scale_nonlinearity", Kind::AccelK2),
+        c(EffectId::EarthRate, Kind::EarthRate),
+        c(EffectId::GyroGSensitivity, Kind::GSens),
+        c(EffectId::GyroScaleNonlinearity, Kind::GyroK2),
+        c(EffectId::GyroScaleAsymmetry, Kind::GyroAsym),
+        c(EffectId::LeverArm, Kind::Lever),
+        c(EffectId::AxisTilt, Kind::Tilt),
+        c(EffectId::TimeOffset, Kind::TimeOffset),
+        c(EffectId::EncoderError, Kind::Encoder),
+        c(EffectId::AccelScaleNonlinearity, Kind::AccelK2),
     ];
     if p.temp_recorded {
-        v.push(c("temperature_bias", Kind::TempGyro));
-        v.push(c("temperature_bias", Kind::TempAccel));
+        v.push(c(EffectId::TemperatureBias, Kind::TempGyro));
+        v.push(c(EffectId::TemperatureBias, Kind::TempAccel));
     } else {
         let span = p.t_s.last().copied().unwrap_or(0.0) - p.t_s.first().copied().unwrap_or(0.0);
         for tau in [60.0, 120.0, 300.0, 600.0, 1200.0, 2400.0] {
             if tau < span / 2.0 {
-                v.push(c("temperature_bias", Kind::Warmup(tau)));
+                v.push(c(EffectId::TemperatureBias, Kind::Warmup(tau)));
             }
         }
     }

@@ -10,8 +10,6 @@ use nalgebra::{DMatrix, DVector};
 /// Highest table-angle harmonic looked at.
 pub const HARMONICS: usize = 8;
 
-/// Table rate below which the table counts as still, rad/s (1 deg/s).
-const STILL_RADPS: f64 = 0.017_453;
 /// Table acceleration above which a sample is in a rate change, rad/s^2
 /// (5 deg/s^2: well above the encoder-derived acceleration's noise at a
 /// steady rate once averaged over a block).
@@ -48,7 +46,7 @@ fn parts(p: &Prediction) -> Vec<usize> {
 fn part_of(w: f64, a: f64) -> usize {
     if a.abs() > RAMP_RADPS2 {
         3
-    } else if w.abs() < STILL_RADPS {
+    } else if core_nav::table::is_still(w) {
         0
     } else if w > 0.0 {
         1

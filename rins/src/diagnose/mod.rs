@@ -41,9 +41,8 @@ pub mod locate;
 pub mod noise;
 pub mod show;
 
-use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
-use core_nav::earth::{earth_rate_n, normal_gravity};
 use effects::{Candidate, Kind};
+use hal_sim::catalogue::EffectId;
 use hal_sim::recording::Recording;
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Unit, Vector3};
 use noise::{Gains, Noise};
@@ -51,21 +50,6 @@ use std::collections::BTreeMap;
 
 /// The six channels' names (recording-v1 columns).
 pub const CHANNELS: [&str; 6] = crate::allan::CHANNELS;
-
-/// Every effect id of diagnose-v1.
-pub const EFFECT_IDS: [&str; 11] = [
-    "earth_rate",
-    "gyro_g_sensitivity",
-    "gyro_scale_nonlinearity",
-    "gyro_scale_asymmetry",
-    "lever_arm",
-    "axis_tilt",
-    "time_offset",
-    "temperature_bias",
-    "bias_instability",
-    "encoder_error",
-    "accel_scale_nonlinearity",
-];
 
 /// BIC margin for a finding: lower by 10 is "very strong" evidence (Kass &
 /// Raftery 1995).
@@ -122,13 +106,13 @@ impl Model {
                 "known" => {
                     let tab = v.as_table().ok_or("known: expected a table of effects")?;
                     for (id, params) in tab {
-                        if !EFFECT_IDS.contains(&id.as_str()) || id == "bias_instability" {
+                        if !EffectId::parse(id).is_some_and(EffectId::is_deterministic) {
                             return Err(format!(
                                 "known.{id}: not an effect id with parameters; known: {}",
-                                EFFECT_IDS
+                                EffectId::ALL
                                     .iter()
-                                    .filter(|e| **e != "bias_instability")
-                                    .copied()
+                                    .filter(|e| e.is_deterministic())
+                                    .map(|e| e.as_str())
                                     .collect::<Vec<_>>()
                                     .join(", ")
                             ));
@@ -318,29 +302,26 @@ fn table_at(t: &[f64], a: &[f64], i0: usize, tq: f64) -> (f64, f64, f64) {
 /// with the IMU samples `time_offset_s` late relative to their stamps.
 pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Prediction {
     let m = &rec.meta;
-    let lat = m.latitude_deg.to_radians();
-    let s = lat.sin();
-    let g = m
-        .gravity_mps2
-        .unwrap_or_else(|| normal_gravity(s * s, m.height_m));
-    let w_ie_n = earth_rate_n(lat.sin(), lat.cos());
-    let c_b_n = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(
-        m.roll_deg,
-        m.pitch_deg,
-        m.heading_deg,
-    )));
+    let site = m.site();
+    let c_b_n = core_nav::site::c_b_n(&m.base());
     let k = Unit::new_normalize(m.axis.unit::<f64>());
     let te: Vec<f64> = rec.table.iter().map(|r| r.t_s).collect();
     let ae: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
     let temp_recorded = rec.imu.iter().all(|r| r.temp_c.is_some()) && !rec.imu.is_empty();
     let temp0 = rec.imu.first().and_then(|r| r.temp_c).unwrap_or(25.0);
-    let f_b = c_b_n.transpose() * Vector3::new(0.0, 0.0, -g);
-    let w_e_b = c_b_n.transpose() * w_ie_n;
+    // The ideal sensor in the base frame (the table at angle 0): the site's
+    // one model (core-nav), here with the full earth rate.
+    let (w_e_b, f_b) = site.ideal_imu(&c_b_n.transpose(), &Vector3::zeros());
+    // The site as the model has it (its earth rate scaled).
+    let model_site = core_nav::site::Site {
+        earth_rate_scale: earth_scale,
+        ..site
+    };
     let mut p = Prediction {
         k: k.into_inner(),
         f_b,
         w_e_b,
-        earth_in_model_radps: earth_scale * w_ie_n.norm(),
+        earth_in_model_radps: earth_scale * w_e_b.norm(),
         temp_recorded,
         enc: (te.clone(), ae.clone()),
         time_offset_s,
@@ -354,12 +335,12 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         }
         let (th, rate, acc) = table_at(&te, &ae, j, tq);
         let c_s_b: Matrix3<f64> = *Rotation3::from_axis_angle(&k, th).matrix();
-        let c_b_s = c_s_b.transpose();
+        let c_n_s = (c_b_n * c_s_b).transpose();
+        let (w, f) = model_site.ideal_imu(&c_n_s, &(k.into_inner() * rate));
         p.t_s.push(r.t_s);
-        let we = c_b_s * w_e_b * earth_scale;
-        p.w_earth.push(we);
-        p.w.push(we + k.into_inner() * rate);
-        p.f.push(c_b_s * f_b);
+        p.w_earth.push(w - k.into_inner() * rate);
+        p.w.push(w);
+        p.f.push(f);
         p.theta.push((th, rate, acc));
         p.dtemp.push(r.temp_c.map_or(0.0, |t| t - temp0));
         p.y_w.push(Vector3::from(r.gyro_radps));
@@ -888,7 +869,8 @@ fn ols_residual(x: &DMatrix<f64>, y: &DVector<f64>) -> DVector<f64> {
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct Finding {
     /// Effect id.
-    pub effect: String,
+    #[serde(serialize_with = "effect_id")]
+    pub effect: EffectId,
     /// Channels.
     pub channels: Vec<String>,
     /// Where the mismatch shows.
@@ -905,7 +887,11 @@ pub struct Finding {
     /// The effect this one cannot be told apart from in this run, if any
     /// (also in `explanation`; not part of the spec's JSON).
     #[serde(skip)]
-    pub lookalike: Option<String>,
+    pub lookalike: Option<EffectId>,
+}
+
+fn effect_id<S: serde::Serializer>(e: &EffectId, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(e.as_str())
 }
 
 /// A mismatch no effect explains.
@@ -1134,7 +1120,7 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
     let lib = |p: &Prediction| -> Vec<Candidate> {
         effects::library(p)
             .into_iter()
-            .filter(|c| !model.known.contains_key(c.id))
+            .filter(|c| !model.known.contains_key(c.id.as_str()))
             .collect()
     };
     // Pass 1: noise from the nominal residual; pass 2: from the residual of
@@ -1251,7 +1237,7 @@ struct Judged {
     snr: f64,
     channels: Vec<usize>,
     explanation: String,
-    lookalike: Option<String>,
+    lookalike: Option<EffectId>,
     fit: serde_json::Value,
 }
 
@@ -1320,7 +1306,7 @@ fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
                     dbic,
                     effects::separate(c.id, dc.id)
                 );
-                lookalike = Some(dc.id.to_string());
+                lookalike = Some(dc.id);
                 break;
             }
         }
@@ -1386,7 +1372,7 @@ fn report(
         findings.push((
             j.dbic,
             Finding {
-                effect: c.id.into(),
+                effect: c.id,
                 channels: j
                     .channels
                     .iter()
@@ -1473,7 +1459,7 @@ fn report(
             findings.push((
                 dbic_sum,
                 Finding {
-                    effect: "bias_instability".into(),
+                    effect: EffectId::BiasInstability,
                     channels: chans.iter().map(|c| CHANNELS[*c].to_string()).collect(),
                     where_: "long averaging times: the residual's Allan deviation stops falling as white noise does; block means correlated over minutes".into(),
                     explanation: format!(
@@ -1498,7 +1484,7 @@ fn report(
     let findings: Vec<Finding> = findings.into_iter().map(|(_, f)| f).collect();
     // Not excited by this run.
     let mut not_observable = vec![];
-    let mut seen: Vec<&str> = vec![];
+    let mut seen: Vec<EffectId> = vec![];
     for (ci, c) in d.cands.iter().enumerate() {
         if seen.contains(&c.id) {
             continue;
@@ -1521,7 +1507,7 @@ fn report(
             params_of(&d.fit(&s), i) > 0
         });
         if !excited {
-            not_observable.push((c.id.to_string(), d.cands[ci].excite().to_string()));
+            not_observable.push((c.id.as_str().to_string(), d.cands[ci].excite().to_string()));
         }
         seen.push(c.id);
     }
@@ -1586,7 +1572,7 @@ pub fn fisher(
     null: &Recording,
     sig_null: &Recording,
     sig_with: &Recording,
-    effect: &str,
+    effect: EffectId,
     opts: &Options,
 ) -> Result<(f64, usize, usize), String> {
     for r in [null, sig_null, sig_with] {
