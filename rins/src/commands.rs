@@ -695,20 +695,12 @@ pub fn diagnose(a: &DiagnoseArgs) -> Result<()> {
         }
     }
     if let Some(p) = &a.json {
-        write_file(p, &serde_json::to_string_pretty(&d.json)?)?;
+        write_file(p, &serde_json::to_string_pretty(&d.to_json())?)?;
         println!("wrote {}", p.display());
     }
     if let Some(dir) = &a.resim {
-        let mut sim = rec.clone();
-        let res = &d.details.res_after;
-        for (r, row) in sim.imu.iter_mut().enumerate() {
-            for i in 0..3 {
-                row.gyro_radps[i] -= res[i].get(r).copied().unwrap_or(0.0);
-                row.accel_mps2[i] -= res[3 + i].get(r).copied().unwrap_or(0.0);
-            }
-        }
-        sim.meta.description = Some(format!("rins diagnose: the fitted model of {name}"));
-        sim.write(dir)
+        d.resimulated(&rec)
+            .write(dir)
             .map_err(|e| anyhow!("writing {}: {e}", dir.display()))?;
         println!("wrote {} (the re-simulated run)", dir.display());
     }

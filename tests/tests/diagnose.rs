@@ -63,8 +63,8 @@ fn named(d: &Diagnosis) -> Vec<&str> {
 fn param(d: &Diagnosis, effect: &str, name: &str) -> (f64, f64) {
     let f = d.findings.iter().find(|f| f.effect == effect).unwrap();
     (
-        f.parameters[name].as_f64().unwrap(),
-        f.parameters[&format!("sigma_{name}")].as_f64().unwrap(),
+        f.value(name).unwrap(),
+        f.parameter(name).and_then(|p| p.sigma).unwrap(),
     )
 }
 
@@ -178,9 +178,7 @@ fn bias_instability_is_named_with_its_parameters() {
         .expect("bias instability");
     let truth = ImuSpec::nav440().gyro.bias_instability;
     for a in ["x", "y"] {
-        let s = f.parameters[&format!("gm_sigma_{a}_radps")]
-            .as_f64()
-            .unwrap();
+        let s = f.value(&format!("gm_sigma_{a}_radps")).unwrap();
         // One 20-minute run holds ~20 correlation times (60 s): the sigma
         // of a Gauss-Markov process is known to ~+-30 % from so few.
         assert!(
@@ -188,10 +186,7 @@ fn bias_instability_is_named_with_its_parameters() {
             "{a}: {s:.3e} vs {truth:.3e}"
         );
     }
-    assert!(
-        f.fit["heldout_rms_after"].as_f64().unwrap()
-            < f.fit["heldout_rms_before"].as_f64().unwrap()
-    );
+    assert!(f.fit.heldout_rms_after < f.fit.heldout_rms_before);
     assert!(named(&d).is_empty(), "{:?}", named(&d));
 }
 
@@ -308,13 +303,14 @@ fn json_matches_the_spec_exactly() {
         d.unexplained
     );
     let mut got = vec![];
-    shape(&d.json, "", &mut got);
+    let json = d.to_json();
+    shape(&json, "", &mut got);
     got.sort();
     got.dedup();
     want.dedup();
     assert_eq!(got, want);
     // Ids, channels and units as the spec says.
-    for f in d.json["findings"].as_array().unwrap() {
+    for f in json["findings"].as_array().unwrap() {
         assert!(hal_sim::catalogue::EffectId::parse(f["effect"].as_str().unwrap()).is_some());
         for ch in f["channels"].as_array().unwrap() {
             assert!(rins::diagnose::CHANNELS.contains(&ch.as_str().unwrap()));
@@ -340,7 +336,7 @@ fn json_matches_the_spec_exactly() {
         }
     }
     // Most significant first.
-    let dbic: Vec<f64> = d.json["findings"]
+    let dbic: Vec<f64> = d.to_json()["findings"]
         .as_array()
         .unwrap()
         .iter()
@@ -416,7 +412,9 @@ fn adis16405_bench_hour_shows_bias_instability() {
     let rec = Recording::read(&dir).unwrap();
     std::fs::remove_dir_all(&dir).unwrap();
     let t = std::time::Instant::now();
-    let report = run(&rec, "adis16405", &Options::default()).unwrap().json;
+    let report = run(&rec, "adis16405", &Options::default())
+        .unwrap()
+        .to_json();
     println!("diagnosed 1 h in {:.2} s", t.elapsed().as_secs_f64());
     let findings = report["findings"].as_array().unwrap();
     let bi: Vec<&serde_json::Value> = findings

@@ -128,21 +128,18 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         );
     }
     for (i, f) in d.findings.iter().enumerate() {
-        let dbic = f.significance["delta_bic"].as_f64().unwrap_or(0.0);
-        let snr = f.significance["snr"].as_f64().unwrap_or(0.0);
-        let _ = writeln!(o, "{}. {} on {}", i + 1, f.effect, f.channels.join(", "));
+        let _ = writeln!(
+            o,
+            "{}. {} on {}",
+            i + 1,
+            f.effect,
+            f.channel_names().join(", ")
+        );
         let _ = writeln!(o, "   {}", f.explanation);
         let _ = writeln!(o, "   where: {}", f.where_);
-        for (k, v) in &f.parameters {
-            if k.starts_with("sigma_") {
-                continue;
-            }
-            let x = v.as_f64().unwrap_or(0.0);
-            match f
-                .parameters
-                .get(&format!("sigma_{k}"))
-                .and_then(serde_json::Value::as_f64)
-            {
+        for p in &f.parameters {
+            let (k, x) = (&p.name, p.value);
+            match p.sigma {
                 Some(s) => {
                     let _ = writeln!(o, "   {k} = {x:.4e} +- {s:.1e}   [{}]", eng_param(k, x));
                 }
@@ -153,9 +150,8 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         }
         let _ = writeln!(
             o,
-            "   how sure: delta BIC {dbic:.0} (lower by 10 is very strong), SNR {snr:.1}; held-out rms {:.3e} -> {:.3e}",
-            f.fit["heldout_rms_before"].as_f64().unwrap_or(0.0),
-            f.fit["heldout_rms_after"].as_f64().unwrap_or(0.0)
+            "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}; held-out rms {:.3e} -> {:.3e}",
+            f.delta_bic, f.snr, f.fit.heldout_rms_before, f.fit.heldout_rms_after
         );
     }
     if !d.unexplained.is_empty() {

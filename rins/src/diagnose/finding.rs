@@ -1,0 +1,208 @@
+//! What a diagnosis says, typed: findings, unexplained mismatches, the
+//! details a person and the plots read. The `rins-diagnose/1` JSON
+//! (`shared/spec/diagnose-v1.md`) and the text report are both written from
+//! these types ([`Diagnosis::to_json`], `show::text`).
+
+use super::locate;
+use super::noise::Noise;
+use super::CHANNELS;
+use hal_sim::catalogue::EffectId;
+use hal_sim::recording::Recording;
+use serde_json::{json, Map, Value};
+
+/// A fitted parameter: SI name (its unit in the suffix), value, 1-sigma
+/// when fitted (a fixed parameter, e.g. a warm-up constant chosen on a
+/// grid, has none).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Parameter {
+    /// Name with its unit (`lever_x_m`, `time_offset_s`, ...).
+    pub name: String,
+    /// Value, in the unit its name says.
+    pub value: f64,
+    /// 1-sigma, same unit.
+    pub sigma: Option<f64>,
+}
+
+/// How much a finding improves the fit: per-channel residual rms (channel
+/// index, channel unit) and the held-out rms over its channels.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FitFigures {
+    /// Residual rms per channel without the finding.
+    pub residual_rms_before: Vec<(usize, f64)>,
+    /// Residual rms per channel with it.
+    pub residual_rms_after: Vec<(usize, f64)>,
+    /// Held-out residual rms without it.
+    pub heldout_rms_before: f64,
+    /// Held-out residual rms with it.
+    pub heldout_rms_after: f64,
+}
+
+/// One finding of the report (diagnose-v1).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Finding {
+    /// Effect id.
+    pub effect: EffectId,
+    /// Channels (0-2 gyro x-z, 3-5 accel x-z; [`CHANNELS`] names them).
+    pub channels: Vec<usize>,
+    /// Where the mismatch shows.
+    pub where_: String,
+    /// For a person.
+    pub explanation: String,
+    /// Fitted parameters.
+    pub parameters: Vec<Parameter>,
+    /// BIC of the model with the finding minus without (negative: better).
+    pub delta_bic: f64,
+    /// The finding's amplitude over its standard error.
+    pub snr: f64,
+    /// Before / after figures.
+    pub fit: FitFigures,
+    /// The effect this one cannot be told apart from in this run, if any
+    /// (also said in `explanation`; not part of the spec's JSON).
+    pub lookalike: Option<EffectId>,
+}
+
+impl Finding {
+    /// The parameter named `name`.
+    pub fn parameter(&self, name: &str) -> Option<&Parameter> {
+        self.parameters.iter().find(|p| p.name == name)
+    }
+
+    /// The value of parameter `name`.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.parameter(name).map(|p| p.value)
+    }
+
+    /// The channels' recording-v1 names.
+    pub fn channel_names(&self) -> Vec<&'static str> {
+        self.channels
+            .iter()
+            .filter_map(|c| CHANNELS.get(*c).copied())
+            .collect()
+    }
+
+    /// The finding as the spec writes it (each parameter's 1-sigma as
+    /// `sigma_<name>`).
+    pub fn to_json(&self) -> Value {
+        let mut params = Map::new();
+        for p in &self.parameters {
+            params.insert(p.name.clone(), p.value.into());
+            if let Some(s) = p.sigma {
+                params.insert(format!("sigma_{}", p.name), s.into());
+            }
+        }
+        let per_channel = |v: &[(usize, f64)]| -> Map<String, Value> {
+            v.iter()
+                .filter_map(|(c, x)| Some(((*CHANNELS.get(*c)?).to_string(), (*x).into())))
+                .collect()
+        };
+        json!({
+            "effect": self.effect.as_str(),
+            "channels": self.channel_names(),
+            "where": self.where_,
+            "explanation": self.explanation,
+            "parameters": params,
+            "significance": {"delta_bic": self.delta_bic, "snr": self.snr},
+            "fit": {
+                "residual_rms_before": per_channel(&self.fit.residual_rms_before),
+                "residual_rms_after": per_channel(&self.fit.residual_rms_after),
+                "heldout_rms_before": self.fit.heldout_rms_before,
+                "heldout_rms_after": self.fit.heldout_rms_after,
+            },
+        })
+    }
+}
+
+/// A mismatch no effect explains.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Unexplained {
+    /// Channels (recording-v1 names).
+    pub channels: Vec<String>,
+    /// Where.
+    #[serde(rename = "where")]
+    pub where_: String,
+    /// Amplitude over its standard error.
+    pub snr: f64,
+}
+
+/// What a person reads beyond the JSON, and what the plots draw.
+#[derive(Clone, Debug, Default)]
+pub struct Details {
+    /// Noise model per channel (fitted to the final residual).
+    pub noise: Vec<Noise>,
+    /// Effects not excited by this run, with the experiment that would.
+    pub not_observable: Vec<(EffectId, String)>,
+    /// Locate: the nominal residual split by motion and time.
+    pub locate: locate::Locate,
+    /// Block length, s.
+    pub block_s: f64,
+    /// Sample time, s.
+    pub dt_s: f64,
+    /// Per-sample residual before (nominal) and after (every finding), per
+    /// channel (channel unit).
+    pub res_before: [Vec<f64>; 6],
+    /// See `res_before`.
+    pub res_after: [Vec<f64>; 6],
+    /// The fitted model's samples (the re-simulation: ideal sensor, nominal
+    /// terms, every finding, the model's known effects; no noise), per
+    /// channel (channel unit).
+    pub model: [Vec<f64>; 6],
+    /// Table angle per sample, rad.
+    pub theta: Vec<f64>,
+    /// Time per sample, s.
+    pub t_s: Vec<f64>,
+    /// Ljung-Box whiteness of the whitened final residual per channel:
+    /// (statistic, lags).
+    pub whiteness: Vec<(f64, usize)>,
+}
+
+/// The report.
+#[derive(Clone, Debug)]
+pub struct Diagnosis {
+    /// The recording as named by the caller.
+    pub recording: String,
+    /// Findings, most significant first.
+    pub findings: Vec<Finding>,
+    /// Unexplained mismatches.
+    pub unexplained: Vec<Unexplained>,
+    /// For the text report and the plots.
+    pub details: Details,
+}
+
+impl Diagnosis {
+    /// The recording `rec` (the one diagnosed) with its IMU samples replaced
+    /// by the fitted model's: the same run re-simulated, to compare or to
+    /// diagnose again.
+    pub fn resimulated(&self, rec: &Recording) -> Recording {
+        let mut sim = rec.clone();
+        let m = &self.details.model;
+        for (r, row) in sim.imu.iter_mut().enumerate() {
+            for i in 0..3 {
+                if let (Some(w), Some(f)) = (m[i].get(r), m[3 + i].get(r)) {
+                    row.gyro_radps[i] = *w;
+                    row.accel_mps2[i] = *f;
+                }
+            }
+        }
+        sim.meta.description = Some(format!(
+            "rins diagnose: the fitted model of {}",
+            self.recording
+        ));
+        sim
+    }
+
+    /// The `rins-diagnose/1` JSON.
+    pub fn to_json(&self) -> Value {
+        let resid: Map<String, Value> = CHANNELS
+            .iter()
+            .zip(&self.details.res_before)
+            .map(|(n, r)| ((*n).to_string(), super::rms(r).into()))
+            .collect();
+        json!({
+            "format": "rins-diagnose/1",
+            "recording": self.recording,
+            "nominal": {"residual_rms": resid},
+            "findings": self.findings.iter().map(Finding::to_json).collect::<Vec<_>>(),
+            "unexplained": self.unexplained,
+        })
+    }
+}

@@ -1,0 +1,285 @@
+//! Predict: the ideal sensor (core-nav's site model) for the recorded table
+//! motion, sample by sample, the block means the regression runs on, and
+//! the input checks.
+
+use hal_sim::recording::Recording;
+use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+
+/// The ideal sensor and the table motion at each IMU sample.
+#[derive(Clone, Debug, Default)]
+pub struct Prediction {
+    /// Time, s.
+    pub t_s: Vec<f64>,
+    /// Ideal rate in s (earth rate as the model has it + table rate), rad/s.
+    pub w: Vec<Vector3<f64>>,
+    /// Ideal specific force in s, m/s^2.
+    pub f: Vec<Vector3<f64>>,
+    /// Table angle, rate, acceleration (rad, rad/s, rad/s^2).
+    pub theta: Vec<(f64, f64, f64)>,
+    /// Temperature change from the first sample, deg C (0 if not recorded).
+    pub dtemp: Vec<f64>,
+    /// The recording has temperatures.
+    pub temp_recorded: bool,
+    /// The table axis `k` (same in `b` and `s`).
+    pub k: Vector3<f64>,
+    /// Specific force of gravity in the base frame `b`, m/s^2.
+    pub f_b: Vector3<f64>,
+    /// The site's full earth rate in `b`, rad/s.
+    pub w_e_b: Vector3<f64>,
+    /// Earth rate the prediction includes, rad/s (0 if the model has none).
+    pub earth_in_model_radps: f64,
+    /// Earth-rate part of `w` (as the model has it), rad/s in s.
+    pub w_earth: Vec<Vector3<f64>>,
+    /// Encoder read times, s, and angles, rad (as recorded).
+    pub enc: (Vec<f64>, Vec<f64>),
+    /// IMU samples are this late relative to their stamps, s.
+    pub time_offset_s: f64,
+    /// Measured samples minus the model's known effects: gyro (rad/s).
+    pub y_w: Vec<Vector3<f64>>,
+    /// See `y_w`: accel (m/s^2).
+    pub y_f: Vec<Vector3<f64>>,
+    /// The model's known effects per channel and sample (channel unit; empty
+    /// when the model has none): subtracted from the measurements in `y_w`,
+    /// `y_f`, added back in the model's re-simulated samples.
+    pub known: [Vec<f64>; 6],
+}
+
+impl Prediction {
+    /// Encoder angle at stamp `t` (rad): the read itself when one is stamped
+    /// there (to 1 us), else the quadratic through the three nearest reads
+    /// (exact on the constant-acceleration pieces of a table profile).
+    pub fn angle_at(&self, t: f64) -> f64 {
+        let (te, ae) = (&self.enc.0, &self.enc.1);
+        let n = te.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let j = te.partition_point(|x| *x < t);
+        for c in [j.saturating_sub(1), j.min(n - 1)] {
+            if (te[c] - t).abs() < 1e-6 {
+                return ae[c];
+            }
+        }
+        if n < 3 {
+            return ae[j.min(n - 1)];
+        }
+        // Three nearest reads.
+        let lo = if j == 0 {
+            0
+        } else if j >= n {
+            n - 3
+        } else if j + 1 < n && (te[j + 1] - t) < (t - te[j - 1]) {
+            j - 1
+        } else {
+            j.saturating_sub(2)
+        }
+        .min(n - 3);
+        let (t0, t1, t2) = (te[lo], te[lo + 1], te[lo + 2]);
+        let (a0, a1, a2) = (ae[lo], ae[lo + 1], ae[lo + 2]);
+        let l0 = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2));
+        let l1 = (t - t0) * (t - t2) / ((t1 - t0) * (t1 - t2));
+        let l2 = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1));
+        a0 * l0 + a1 * l1 + a2 * l2
+    }
+
+    /// Ideal value of channel `ch` at sample `r`.
+    pub fn truth(&self, ch: usize, r: usize) -> f64 {
+        if ch < 3 {
+            self.w[r][ch]
+        } else {
+            self.f[r][ch - 3]
+        }
+    }
+
+    /// Measured value of channel `ch` at sample `r`.
+    pub fn meas(&self, ch: usize, r: usize) -> f64 {
+        if ch < 3 {
+            self.y_w[r][ch]
+        } else {
+            self.y_f[r][ch - 3]
+        }
+    }
+
+    /// The model's known effects on channel `ch` at sample `r`.
+    pub fn known(&self, ch: usize, r: usize) -> f64 {
+        self.known[ch].get(r).copied().unwrap_or(0.0)
+    }
+
+    /// The nominal regressor `j` (0 intercept, 1-3 the triad's truth) of
+    /// channel `ch` at sample `r`.
+    pub fn nominal(&self, ch: usize, j: usize, r: usize) -> f64 {
+        if j == 0 {
+            1.0
+        } else if ch < 3 {
+            self.w[r][j - 1]
+        } else {
+            self.f[r][j - 1]
+        }
+    }
+}
+
+/// Local quadratic fit of the encoder angle around `t` (the 5 nearest
+/// reads): angle, rate, acceleration.
+fn table_at(t: &[f64], a: &[f64], i0: usize, tq: f64) -> (f64, f64, f64) {
+    let n = t.len();
+    let lo = i0.saturating_sub(2).min(n.saturating_sub(5));
+    let hi = (lo + 5).min(n);
+    let m = hi - lo;
+    if m < 3 {
+        return (a.get(i0).copied().unwrap_or(0.0), 0.0, 0.0);
+    }
+    // 3x3 normal equations of the quadratic in (t - tq).
+    let mut ata = Matrix3::<f64>::zeros();
+    let mut aty = Vector3::<f64>::zeros();
+    for r in lo..hi {
+        let d = t[r] - tq;
+        let row = Vector3::new(1.0, d, d * d);
+        ata += row * row.transpose();
+        aty += row * a[r];
+    }
+    match ata.cholesky() {
+        Some(c) => {
+            let s = c.solve(&aty);
+            (s[0], s[1], 2.0 * s[2])
+        }
+        None => (a.get(i0).copied().unwrap_or(0.0), 0.0, 0.0),
+    }
+}
+
+/// Predicts the ideal sensor for `rec` (the nominal world: earth rate scaled
+/// by `earth_scale`, gravity, the table's motion about its nominal axis),
+/// with the IMU samples `time_offset_s` late relative to their stamps.
+pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Prediction {
+    let m = &rec.meta;
+    let site = m.site();
+    let c_b_n = core_nav::site::c_b_n(&m.base());
+    let k = Unit::new_normalize(m.axis.unit::<f64>());
+    let te: Vec<f64> = rec.table.iter().map(|r| r.t_s).collect();
+    let ae: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
+    let temp_recorded = rec.imu.iter().all(|r| r.temp_c.is_some()) && !rec.imu.is_empty();
+    let temp0 = rec.imu.first().and_then(|r| r.temp_c).unwrap_or(25.0);
+    // The ideal sensor in the base frame (the table at angle 0): the site's
+    // one model (core-nav), here with the full earth rate.
+    let (w_e_b, f_b) = site.ideal_imu(&c_b_n.transpose(), &Vector3::zeros());
+    // The site as the model has it (its earth rate scaled).
+    let model_site = core_nav::site::Site {
+        earth_rate_scale: earth_scale,
+        ..site
+    };
+    let mut p = Prediction {
+        k: k.into_inner(),
+        f_b,
+        w_e_b,
+        earth_in_model_radps: earth_scale * w_e_b.norm(),
+        temp_recorded,
+        enc: (te.clone(), ae.clone()),
+        time_offset_s,
+        ..Prediction::default()
+    };
+    let mut j = 0usize;
+    for r in &rec.imu {
+        let tq = r.t_s - time_offset_s;
+        while j + 1 < te.len() && te[j + 1] <= tq {
+            j += 1;
+        }
+        let (th, rate, acc) = table_at(&te, &ae, j, tq);
+        let c_s_b: Matrix3<f64> = *Rotation3::from_axis_angle(&k, th).matrix();
+        let c_n_s = (c_b_n * c_s_b).transpose();
+        let (w, f) = model_site.ideal_imu(&c_n_s, &(k.into_inner() * rate));
+        p.t_s.push(r.t_s);
+        p.w_earth.push(w - k.into_inner() * rate);
+        p.w.push(w);
+        p.f.push(f);
+        p.theta.push((th, rate, acc));
+        p.dtemp.push(r.temp_c.map_or(0.0, |t| t - temp0));
+        p.y_w.push(Vector3::from(r.gyro_radps));
+        p.y_f.push(Vector3::from(r.accel_mps2));
+    }
+    p
+}
+
+/// Residual rms.
+pub fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+/// Block means of `v` over `len` sample intervals: block `b` is the
+/// trapezoid integral over samples `b len ..= (b + 1) len` (neighbours share
+/// their edge sample) over its length, so a block is the mean over an
+/// interval that starts and ends on a sample (where the encoder angle is
+/// known), not over the samples' centres. A partial last block is dropped.
+pub fn blocks(v: &[f64], len: usize) -> Vec<f64> {
+    let len = len.max(1);
+    let nb = v.len().saturating_sub(1) / len;
+    (0..nb)
+        .map(|b| {
+            let s = &v[b * len..=(b + 1) * len];
+            let inner: f64 = s[1..len].iter().sum();
+            (inner + 0.5 * (s[0] + s[len])) / len as f64
+        })
+        .collect()
+}
+
+/// The encoder's quantum, rad: the smallest non-zero step between
+/// consecutive reads, if the steps are whole multiples of it (a quantised
+/// encoder); 0 for an encoder whose angles are not on a grid.
+pub fn encoder_quantum(a: &[f64]) -> f64 {
+    let steps: Vec<f64> = a
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 1e-12)
+        .collect();
+    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    if !q.is_finite() {
+        return 0.0;
+    }
+    let on_grid = steps
+        .iter()
+        .take(2000)
+        .all(|d| ((d / q) - (d / q).round()).abs() < 1e-3);
+    if on_grid {
+        q
+    } else {
+        0.0
+    }
+}
+
+pub(super) fn check(rec: &Recording) -> Result<(), String> {
+    if rec.imu.len() < 200 {
+        return Err(format!(
+            "{} IMU samples: too short to diagnose (need at least 200)",
+            rec.imu.len()
+        ));
+    }
+    if rec.table.len() < 5 {
+        return Err(format!(
+            "{} encoder reads: need at least 5",
+            rec.table.len()
+        ));
+    }
+    for (i, r) in rec.imu.iter().enumerate() {
+        if !(r.t_s.is_finite()
+            && r.gyro_radps.iter().all(|v| v.is_finite())
+            && r.accel_mps2.iter().all(|v| v.is_finite()))
+        {
+            return Err(format!("imu sample {i} (t = {} s) is not finite", r.t_s));
+        }
+    }
+    if let Some(i) = rec
+        .table
+        .iter()
+        .position(|r| !(r.t_s.is_finite() && r.angle_rad.is_finite()))
+    {
+        return Err(format!("encoder read {i} is not finite"));
+    }
+    Ok(())
+}
+
+pub(super) fn dt_of(p: &Prediction) -> f64 {
+    let n = p.t_s.len();
+    if n > 1 {
+        (p.t_s[n - 1] - p.t_s[0]) / (n - 1) as f64
+    } else {
+        0.01
+    }
+}

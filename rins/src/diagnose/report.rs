@@ -1,0 +1,275 @@
+//! The report: typed findings from the selection (parameters with their
+//! 1-sigma, significance, fit figures), bias instability on the final
+//! residual, what the run cannot see, and the per-sample re-simulation.
+
+use super::design::{Design, Fit, Key};
+use super::effects::Kind;
+use super::noise::{self, Noise};
+use super::select::{params_of, Judged, Selection};
+use super::{
+    allan_excess, dt_of, locate, Details, Diagnosis, Finding, FitFigures, Parameter, Prediction,
+    BIC_MARGIN,
+};
+use hal_sim::catalogue::EffectId;
+
+/// The samples the model `fit` re-simulates, per channel: the ideal sensor,
+/// the nominal terms, every effect of `fit` and the model's known effects
+/// (channel unit, per IMU sample).
+pub(super) fn model_samples(p: &Prediction, d: &Design, fit: &Fit) -> [Vec<f64>; 6] {
+    let n = p.t_s.len();
+    let mut out: [Vec<f64>; 6] =
+        std::array::from_fn(|ch| (0..n).map(|r| p.truth(ch, r) + p.known(ch, r)).collect());
+    for (key, i) in &fit.index {
+        let b = fit.beta[*i];
+        if let Key::Nominal { ch, j } = *key {
+            for (r, v) in out[ch].iter_mut().enumerate() {
+                *v += b * p.nominal(ch, j, r);
+            }
+        }
+    }
+    let mut cands: Vec<usize> = fit
+        .index
+        .iter()
+        .filter_map(|(k, _)| match k {
+            Key::Effect { cand, .. } => Some(*cand),
+            Key::Nominal { .. } => None,
+        })
+        .collect();
+    cands.dedup();
+    for ci in cands {
+        for t in d.cands[ci].terms(p) {
+            if let Some((b, _)) = fit.value(Key::Effect {
+                cand: ci,
+                param: t.param,
+            }) {
+                for (v, x) in out[t.ch].iter_mut().zip(&t.col) {
+                    *v += b * x;
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The recording minus the model's samples, per channel and sample.
+fn residuals(p: &Prediction, model: &[Vec<f64>; 6]) -> [Vec<f64>; 6] {
+    std::array::from_fn(|ch| {
+        model[ch]
+            .iter()
+            .enumerate()
+            .map(|(r, m)| p.meas(ch, r) + p.known(ch, r) - m)
+            .collect()
+    })
+}
+
+pub(super) fn report(
+    name: &str,
+    p: &Prediction,
+    d: &Design,
+    sel: &Selection,
+    judged: &[(usize, Judged)],
+    time_offset_fitted: f64,
+) -> Result<Diagnosis, String> {
+    let ln_n = (d.rows().max(2) as f64).ln();
+    let nominal_fit = d.fit(&[]);
+    let res_before = residuals(p, &model_samples(p, d, &nominal_fit));
+    let model = model_samples(p, d, &sel.fit);
+    let res_after = residuals(p, &model);
+    let mut findings: Vec<(f64, Finding)> = vec![];
+    for (ci, j) in judged {
+        let c = &d.cands[*ci];
+        let f1 = &sel.fit;
+        let mut params = vec![];
+        for (pi, pn) in d.names[*ci].iter().enumerate() {
+            if let Some((mut v, s)) = f1.value(Key::Effect {
+                cand: *ci,
+                param: pi,
+            }) {
+                if c.kind == Kind::EarthRate {
+                    v += p.earth_in_model_radps;
+                }
+                if c.kind == Kind::TimeOffset {
+                    v = time_offset_fitted;
+                }
+                params.push(Parameter {
+                    name: pn.clone(),
+                    value: v,
+                    sigma: Some(s),
+                });
+            }
+        }
+        for (pn, v) in c.fixed() {
+            params.push(Parameter {
+                name: pn,
+                value: v,
+                sigma: None,
+            });
+        }
+        findings.push((
+            j.dbic,
+            Finding {
+                effect: c.id,
+                channels: j.channels.clone(),
+                where_: c.where_().into(),
+                explanation: j.explanation.clone(),
+                lookalike: j.lookalike,
+                parameters: params,
+                delta_bic: j.dbic,
+                snr: j.snr,
+                fit: j.fit.clone(),
+            },
+        ));
+    }
+    // Bias instability: white + Gauss-Markov against white only, on the
+    // final residual's block means.
+    let dt = dt_of(p);
+    let block_s = d.ch[0].noise.block_s;
+    let len = ((block_s / dt).round() as usize).max(1);
+    let mut noise_final = vec![];
+    let mut whiteness = vec![];
+    let fits: Vec<(Vec<f64>, Noise, Noise)> = std::thread::scope(|sc| {
+        let one = |ch: usize| {
+            let z = d.block_residual(&sel.fit, ch);
+            let gm = noise::fit(&z, block_s, d.quant[ch]);
+            let wn = noise::fit_white(&z, block_s, d.quant[ch]);
+            (z, gm, wn)
+        };
+        let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || one(ch))).collect();
+        hs.into_iter()
+            .enumerate()
+            .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
+            .collect()
+    });
+    for triad in 0..2 {
+        let mut params = vec![];
+        let (mut chans, mut dbic_sum, mut chi) = (vec![], 0.0, 0.0f64);
+        let (mut before, mut after) = (vec![], vec![]);
+        let (mut hb, mut ha, mut nr) = (0.0, 0.0, 0.0);
+        for i in 0..3 {
+            let ch = 3 * triad + i;
+            let (z, gm, wn) = (&fits[ch].0, fits[ch].1, fits[ch].2);
+            noise_final.push(gm);
+            let mut wz = vec![];
+            gm.gains(z.len()).whiten_into(z, &mut wz);
+            whiteness.push(locate::ljung_box(&wz, 20));
+            let dll = gm.loglik - wn.loglik;
+            let dbic = -2.0 * dll + 2.0 * (z.len().max(2) as f64).ln();
+            if dbic >= -BIC_MARGIN || gm.lambda <= 0.0 {
+                continue;
+            }
+            // Held out: each block predicted from the blocks before it.
+            let innov = gm.gains(z.len()).innovations(z);
+            let mean = z.iter().sum::<f64>() / z.len().max(1) as f64;
+            let b2: f64 = z.iter().map(|v| (v - mean).powi(2)).sum();
+            let a2: f64 = innov.iter().map(|v| v * v).sum();
+            if a2 >= b2 {
+                continue;
+            }
+            let nz = z.len() as f64;
+            hb += b2;
+            ha += a2;
+            nr += nz;
+            chans.push(ch);
+            dbic_sum += dbic;
+            chi = chi.max((2.0 * dll).max(0.0).sqrt());
+            before.push((ch, (b2 / nz).sqrt()));
+            after.push((ch, (a2 / nz).sqrt()));
+            let (ax, unit, wunit) = (
+                ["x", "y", "z"][i],
+                ["radps", "mps2"][triad],
+                ["rad_per_sqrt_s", "mps_per_sqrt_s"][triad],
+            );
+            let (_, b_allan, _) = allan_excess(&res_after[ch], dt);
+            for (name, value) in [
+                (format!("bias_instability_{ax}_{unit}"), b_allan),
+                (format!("gm_sigma_{ax}_{unit}"), gm.gm_sigma()),
+                (format!("gm_tau_{ax}_s"), gm.tau_s().min(1e12)),
+                (format!("white_noise_{ax}_{wunit}"), gm.white_density()),
+            ] {
+                params.push(Parameter {
+                    name,
+                    value,
+                    sigma: None,
+                });
+            }
+        }
+        if !chans.is_empty() {
+            findings.push((
+                dbic_sum,
+                Finding {
+                    effect: EffectId::BiasInstability,
+                    channels: chans,
+                    where_: "long averaging times: the residual's Allan deviation stops falling as white noise does; block means correlated over minutes".into(),
+                    explanation: format!(
+                        "a constant bias and white noise do not explain the {}: the bias wanders (Gauss-Markov / flicker); modelled, each {:.1} s mean is predicted from the ones before it",
+                        ["gyros", "accelerometers"][triad],
+                        block_s
+                    ),
+                    parameters: params,
+                    delta_bic: dbic_sum,
+                    snr: chi,
+                    fit: FitFigures {
+                        residual_rms_before: before,
+                        residual_rms_after: after,
+                        heldout_rms_before: (hb / nr.max(1.0)).sqrt(),
+                        heldout_rms_after: (ha / nr.max(1.0)).sqrt(),
+                    },
+                    lookalike: None,
+                },
+            ));
+        }
+    }
+    findings.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let findings: Vec<Finding> = findings.into_iter().map(|(_, f)| f).collect();
+    // Not excited by this run.
+    let mut not_observable = vec![];
+    let mut seen: Vec<EffectId> = vec![];
+    for (ci, c) in d.cands.iter().enumerate() {
+        if seen.contains(&c.id) {
+            continue;
+        }
+        let same: Vec<usize> = d
+            .cands
+            .iter()
+            .enumerate()
+            .filter(|(_, x)| x.id == c.id)
+            .map(|(i, _)| i)
+            .collect();
+        let excited = same.iter().any(|&i| {
+            let mut s: Vec<usize> = sel
+                .set
+                .iter()
+                .copied()
+                .filter(|x| d.cands[*x].id != c.id)
+                .collect();
+            s.push(i);
+            params_of(&d.fit(&s), i) > 0
+        });
+        if !excited {
+            not_observable.push((c.id, d.cands[ci].excite().to_string()));
+        }
+        seen.push(c.id);
+    }
+    let locate = locate::locate(p, &res_before, dt);
+    let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
+    let unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
+
+    Ok(Diagnosis {
+        recording: name.to_string(),
+        findings,
+        unexplained,
+        details: Details {
+            noise: noise_final,
+            not_observable,
+            locate,
+            block_s,
+            dt_s: dt,
+            res_before,
+            res_after,
+            model,
+            theta: p.theta.iter().map(|t| t.0).collect(),
+            t_s: p.t_s.clone(),
+            whiteness,
+        },
+    })
+}
