@@ -3,7 +3,7 @@
 //! For each sensor grade (`nav440` to `mtig`) and each effect id, recordings
 //! with the effect hidden at multiples of its minimum detectable effect
 //! (MDE: the magnitude the detection rule catches half the time, from the
-//! Fisher information of the run, [`crate::diagnose::fisher`]), many seeds
+//! Fisher information of the run, [`crate::diagnose::fisher()`]), many seeds
 //! per cell, plus null recordings (background only). The background is
 //! realistic: the grade's nominal errors (bias, scale, misalignment), white
 //! noise, the gyro bias instability, output quantisation, the warm-up (its

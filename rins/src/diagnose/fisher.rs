@@ -31,13 +31,13 @@ pub fn allan_excess(res: &[f64], tau0: f64) -> (f64, f64, f64) {
 /// the same seed that differ only by the effect; best without quantisation,
 /// whose changed rounding would pass for signal), whitened by the noise model
 /// fitted to `null` (the run as recorded) and with the nominal terms
-/// projected out. The detection statistic of [`run`] for that effect is
+/// projected out. The detection statistic of [`super::run`] for that effect is
 /// noncentral chi^2 with `k` degrees of freedom and this `lambda`. Returns
 /// `(lambda, k, N)` with `k` the effect's parameters the run excites and `N`
 /// the regression's rows (the BIC's sample size).
 ///
 /// # Errors
-/// As [`run`]; runs of different lengths.
+/// As [`super::run`]; runs of different lengths.
 pub fn fisher(
     null: &Recording,
     sig_null: &Recording,

@@ -37,10 +37,10 @@
 //! is diagnosed in about a second.
 //!
 //! Where each step lives: [`model`] (the nominal model, options, known
-//! effects), [`predict`] (1), `design` (the whitened regression, 2-4),
+//! effects), [`mod@predict`] (1), `design` (the whitened regression, 2-4),
 //! [`noise`] (3), [`effects`] (the candidates' physics), `select` (4),
 //! `report` (5-6, typed findings), [`finding`] (the report's types and its
-//! JSON), [`locate`] (7), [`fisher`] (detection limits for the study),
+//! JSON), [`locate`] (7), [`mod@fisher`] (detection limits for the study),
 //! [`show`] (text and plots). [`run`] below strings them together.
 
 mod design;
