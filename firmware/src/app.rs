@@ -104,9 +104,18 @@ pub enum Mode {
     Stopped(Fault),
 }
 
+/// `Calibration.status` of the record found in flash at power-up (not a
+/// refusal code: those are 1-8, an accepted calibration 0).
+pub const CAL_STATUS_STORED: u8 = 0x80;
+
 /// Length of a stored calibration record, bytes.
 pub const CAL_RECORD: usize = 4 + 12 + 12 + 2;
 const CAL_MAGIC: u32 = 0x5249_4E53; // "RINS"
+
+/// A vector as the f32 triple telemetry carries.
+fn f32x3(v: &Vector3<f64>) -> [f32; 3] {
+    [v.x as f32, v.y as f32, v.z as f32]
+}
 
 /// The calibration as a flash record: magic, bias, M k, CRC-16.
 pub fn encode_record(c: &GyroCalibration) -> [u8; CAL_RECORD] {
@@ -179,6 +188,10 @@ pub struct App {
     pub calibration: Option<GyroCalibration>,
     /// The record to store in flash.
     pub stored: Option<[u8; CAL_RECORD]>,
+    /// The record read from flash at power-up ([`App::restore`]).
+    pub previous: Option<GyroCalibration>,
+    /// The accepted calibration minus `previous`: (bias rad/s, `M k`).
+    pub change: Option<(Vector3<f64>, Vector3<f64>)>,
     nav: Option<Strapdown<f32>>,
     nav_count: u32,
     last_imu_us: Option<u64>,
@@ -224,6 +237,8 @@ impl App {
             static_phase: None,
             calibration: None,
             stored: None,
+            previous: None,
+            change: None,
             nav: None,
             nav_count: 0,
             last_imu_us: None,
@@ -239,6 +254,25 @@ impl App {
             seq: 0,
             rx: Decoder::default(),
         })
+    }
+
+    /// Takes the calibration record found in flash at power-up. A valid
+    /// record is reported (`Calibration` with status
+    /// [`CAL_STATUS_STORED`]) and kept: the power-up calibration still runs
+    /// and, when accepted, its change from this record is reported
+    /// (`CalibrationChange`). Returns whether the record was valid (blank or
+    /// corrupt flash: `false`, nothing kept).
+    pub fn restore(&mut self, record: &[u8; CAL_RECORD]) -> bool {
+        let Some(c) = decode_record(record, Axis::Z) else {
+            return false;
+        };
+        self.previous = Some(c);
+        self.emit(Telemetry::Calibration {
+            bias_radps: f32x3(&c.bias),
+            m_k: f32x3(&c.m_k),
+            status: CAL_STATUS_STORED,
+        });
+        true
     }
 
     /// The motor duty in [-1, 1] (sign = direction) to apply now.
@@ -490,12 +524,19 @@ impl App {
         }
         self.calibration = Some(cal);
         self.stored = Some(encode_record(&cal));
-        let f32v = |v: &Vector3<f64>| [v.x as f32, v.y as f32, v.z as f32];
         self.emit(Telemetry::Calibration {
-            bias_radps: f32v(&cal.bias),
-            m_k: f32v(&cal.m_k),
+            bias_radps: f32x3(&cal.bias),
+            m_k: f32x3(&cal.m_k),
             status: 0,
         });
+        if let Some(p) = self.previous {
+            let change = (cal.bias - p.bias, cal.m_k - p.m_k);
+            self.change = Some(change);
+            self.emit(Telemetry::CalibrationChange {
+                d_bias_radps: f32x3(&change.0),
+                d_m_k: f32x3(&change.1),
+            });
+        }
         // Navigation starts here, from the known base attitude and the table angle.
         let theta = angle.rad;
         let q0 = euler_to_quat(&base) * q_s_b(Axis::Z, f64::from(theta));

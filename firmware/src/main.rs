@@ -4,7 +4,9 @@
 //! Tasks: a 1 kHz tick (IMU read, rate loop, encoder at 50 Hz, watchdog at
 //! 10 Hz, PWM + direction); `idle` drains telemetry to the UART, reads
 //! commands and writes the calibration record to flash (an erase blocks for
-//! about a second: never in the control loop).
+//! about a second: never in the control loop). At power-up `init` reads the
+//! last record back: the board reports it and, once the power-up
+//! calibration is accepted, its change from it.
 
 #![cfg_attr(target_os = "none", no_std, no_main)]
 
@@ -96,6 +98,8 @@ mod app {
         tx: Tx<USART1>,
         rx: Rx<USART1>,
         flash: FLASH,
+        /// The calibration record now in flash (read at power-up).
+        written: Option<[u8; CAL_RECORD]>,
     }
 
     #[init]
@@ -148,10 +152,24 @@ mod app {
             Ok(s) => s.split(),
             Err(_) => defmt::panic!("USART1 configuration"), // init only: a board that cannot talk is broken
         };
-        let app = match App::new(AppConfig::default()) {
+        let mut app = match App::new(AppConfig::default()) {
             Ok(a) => a,
             Err(_) => defmt::panic!("default configuration out of range"), // init only: a build error
         };
+        // The record the last power-up stored: reported, kept to report
+        // the new calibration's change from it; the board still calibrates.
+        let mut written = None;
+        let stored = dp
+            .FLASH
+            .read()
+            .get(board::CAL_OFFSET..board::CAL_OFFSET + CAL_RECORD)
+            .and_then(|b| <[u8; CAL_RECORD]>::try_from(b).ok());
+        if let Some(rec) = stored {
+            if app.restore(&rec) {
+                defmt::info!("calibration record found in flash");
+                written = Some(rec);
+            }
+        }
         // The hardware watchdog: the tick task feeds it every 1 ms; if the
         // scheduler stalls for 100 ms the chip resets (motor PWM off at reset).
         let mut wdg = IndependentWatchdog::new(dp.IWDG);
@@ -170,6 +188,7 @@ mod app {
                 tx,
                 rx,
                 flash: dp.FLASH,
+                written,
             },
         )
     }
@@ -212,7 +231,7 @@ mod app {
     }
 
     /// Telemetry out, commands in, the calibration record to flash.
-    #[idle(shared = [app], local = [tx, rx, flash, written: Option<[u8; CAL_RECORD]> = None])]
+    #[idle(shared = [app], local = [tx, rx, flash, written])]
     fn idle(mut cx: idle::Context) -> ! {
         let mut frames = [[0u8; firmware::telemetry::MAX_FRAME]; 8];
         let mut lens = [0usize; 8];

@@ -77,6 +77,15 @@ pub enum Telemetry {
         /// 0 accepted; otherwise the refusal reason code.
         status: u8,
     },
+    /// How the calibration just accepted differs from the record stored
+    /// in flash at power-up (new minus stored): the health figure of a
+    /// sensor whose errors drift between power-ups.
+    CalibrationChange {
+        /// Bias change, rad/s.
+        d_bias_radps: [f32; 3],
+        /// `M k` change.
+        d_m_k: [f32; 3],
+    },
     /// A fault: its code and how many so far.
     Fault {
         /// Time since boot, µs.
@@ -139,6 +148,7 @@ const T_NAV: u8 = 3;
 const T_CAL: u8 = 4;
 const T_FAULT: u8 = 5;
 const T_ACK: u8 = 6;
+const T_CAL_CHANGE: u8 = 7;
 const C_SCHEME: u8 = 0x81;
 const C_START: u8 = 0x82;
 const C_STOP: u8 = 0x83;
@@ -279,6 +289,15 @@ impl Telemetry {
                 w.f32s(&m_k);
                 w.bytes(&[status]);
             }
+            Telemetry::CalibrationChange {
+                d_bias_radps,
+                d_m_k,
+            } => {
+                w.bytes(&[T_CAL_CHANGE]);
+                w.bytes(&seq.to_le_bytes());
+                w.f32s(&d_bias_radps);
+                w.f32s(&d_m_k);
+            }
             Telemetry::Fault { t_us, code, count } => {
                 w.bytes(&[T_FAULT]);
                 w.bytes(&seq.to_le_bytes());
@@ -330,6 +349,10 @@ impl Telemetry {
                 bias_radps: r.f32n()?,
                 m_k: r.f32n()?,
                 status: r.u8()?,
+            },
+            T_CAL_CHANGE => Telemetry::CalibrationChange {
+                d_bias_radps: r.f32n()?,
+                d_m_k: r.f32n()?,
             },
             T_FAULT => Telemetry::Fault {
                 t_us: r.u64()?,

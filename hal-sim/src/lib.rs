@@ -10,7 +10,7 @@
 //!   simulator's knobs, diagnose and the study are keyed by.
 //! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]).
 //! - [`dual`]: dual-axis sequences on a tri-axial table.
-//! - [`icm42688`], [`bench`], [`drivers`]: the ICM-42688-P register model,
+//! - [`icm42688`], [`mod@bench`], [`drivers`]: the ICM-42688-P register model,
 //!   the shared bench, embedded-hal 1.0 mock drivers with fault injection.
 //! - [`recording`]: the `rins-recording/1` reader and writer; [`rng`]: the
 //!   seeded generator.

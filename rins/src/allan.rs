@@ -1,7 +1,7 @@
 //! `rins allan`: Allan deviation of the six IMU channels, noise fit, JSON
 //! (`rins-allan/1`) and a plot.
 
-use crate::plot::{Chart, Series};
+use crate::plot::{Chart, Figure, Series};
 use core_nav::allan::{fit_noise, oadev, octave_factors, AdevPoint, NoiseFit};
 use hal_sim::recording::Recording;
 use serde_json::{json, Map, Value};
@@ -84,8 +84,8 @@ pub fn to_json(chs: &[ChannelAllan]) -> Value {
     json!({ "format": "rins-allan/1", "channels": Value::Object(m) })
 }
 
-/// Two charts (gyro, accel) stacked in one SVG.
-pub fn svg(chs: &[ChannelAllan], title: &str) -> String {
+/// Two charts (gyro above, accel below) in one figure.
+pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
     let chart = |range: std::ops::Range<usize>, unit: &str, what: &str| {
         let mut series = vec![];
         for c in &chs[range] {
@@ -110,22 +110,13 @@ pub fn svg(chs: &[ChannelAllan], title: &str) -> String {
             log_y: true,
             series,
         }
-        .svg()
     };
-    let a = chart(0..3, "rad/s", "gyroscopes");
-    let b = chart(3..6, "m/s^2", "accelerometers");
-    format!(
-        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"780\" height=\"880\">\n<g>{}</g>\n<g transform=\"translate(0,440)\">{}</g>\n</svg>\n",
-        strip_svg(&a),
-        strip_svg(&b)
-    )
-}
-
-/// The inside of an `<svg>` element (to nest it in a group).
-pub fn strip_svg(s: &str) -> &str {
-    let start = s.find('>').map_or(0, |i| i + 1);
-    let end = s.rfind("</svg>").unwrap_or(s.len());
-    &s[start..end]
+    Figure {
+        charts: vec![
+            chart(0..3, "rad/s", "gyroscopes"),
+            chart(3..6, "m/s^2", "accelerometers"),
+        ],
+    }
 }
 
 /// A text table.

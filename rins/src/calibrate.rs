@@ -183,7 +183,7 @@ pub fn accumulate(
 
 /// A finished calibration with what it was made from.
 #[derive(Clone, Debug)]
-pub struct Result_ {
+pub struct Calibration {
     /// Method used.
     pub method: Method,
     /// The corrections.
@@ -218,7 +218,7 @@ pub fn calibrate(
     window: (f64, f64),
     method: Method,
     commanded_radps: Option<f64>,
-) -> Result<Result_> {
+) -> Result<Calibration> {
     let dt = 1.0 / rec.meta.imu_rate_hz;
     let mut cut = rec.clone();
     cut.table.retain(|r| r.t_s >= window.0 && r.t_s <= window.1);
@@ -310,7 +310,7 @@ pub fn calibrate(
     let ps: Vec<Phase> = phases.iter().map(|(_, p)| *p).collect();
     let gyro =
         solve(&ps, &earth, unknowns, rec.meta.axis).map_err(|e: CalibError| anyhow!("{e}"))?;
-    Ok(Result_ {
+    Ok(Calibration {
         method,
         gyro,
         phases,
@@ -339,7 +339,7 @@ fn v3(v: &Vector3<f64>) -> Value {
 }
 
 /// The calibration file (`rins-calibration/1`).
-pub fn to_json(r: &Result_) -> Value {
+pub fn to_json(r: &Calibration) -> Value {
     let g = &r.gyro;
     json!({
         "format": "rins-calibration/1",
@@ -364,7 +364,8 @@ pub fn to_json(r: &Result_) -> Value {
     })
 }
 
-/// Reads a calibration file written by [`to_json`].
+/// Reads a calibration file written by [`to_json`] (or by `rins record`
+/// from the board's frames: no predicted errors).
 ///
 /// # Errors
 /// Wrong format or missing fields, named.
@@ -394,22 +395,31 @@ pub fn from_json(v: &Value) -> Result<GyroCalibration> {
         .and_then(Value::as_str)
         .and_then(parse_axis)
         .ok_or_else(|| anyhow!("missing axis"))?;
+    // Predicted errors are optional (the board's calibration frames carry
+    // none): absent, they are 0.
+    let sigma = |path: &[&str]| -> Result<Vector3<f64>> {
+        if v.get("predicted_sigma").is_some() {
+            vec(path)
+        } else {
+            Ok(Vector3::zeros())
+        }
+    };
     Ok(GyroCalibration {
         bias: vec(&["gyro", "bias_radps"])?,
         m_k: vec(&["gyro", "m_k"])?,
         q: vec(&["gyro", "q_per_radps"])?,
         a: vec(&["gyro", "asymmetry"])?,
-        sigma_bias: vec(&["predicted_sigma", "bias_radps"])?,
-        sigma_m_k: vec(&["predicted_sigma", "m_k"])?,
-        sigma_q: vec(&["predicted_sigma", "q_per_radps"])?,
-        sigma_a: vec(&["predicted_sigma", "asymmetry"])?,
+        sigma_bias: sigma(&["predicted_sigma", "bias_radps"])?,
+        sigma_m_k: sigma(&["predicted_sigma", "m_k"])?,
+        sigma_q: sigma(&["predicted_sigma", "q_per_radps"])?,
+        sigma_a: sigma(&["predicted_sigma", "asymmetry"])?,
         axis,
         second: None,
     })
 }
 
 /// Text report.
-pub fn report(r: &Result_) -> String {
+pub fn report(r: &Calibration) -> String {
     let g = &r.gyro;
     let dph = |x: f64| x.to_degrees() * 3600.0;
     let mut s = format!(

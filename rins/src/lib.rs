@@ -4,9 +4,11 @@
 
 pub mod allan;
 pub mod calibrate;
+pub mod demo;
 pub mod diagnose;
 pub mod nav;
 pub mod plot;
+pub mod qemu_replay;
 pub mod record;
 pub mod report;
 pub mod reproduce;

@@ -1,8 +1,12 @@
-//! A small SVG plotter: line and point series on linear or log axes, with
-//! optional error bars, a title, axis labels and a legend. No fonts are
-//! needed (text stays text in the SVG), so it works on any machine.
+//! Charts: line and point series on linear or log axes, with optional
+//! error bars, a title, axis labels and a legend, drawn by `plotters` into
+//! SVG and PNG from the same description. Text is set in an embedded font
+//! (DejaVu Sans, `assets/`), so PNGs render on a machine without fonts.
 
-use std::path::Path;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::{Path, PathBuf};
 
 /// One series.
 #[derive(Clone, Debug)]
@@ -49,69 +53,76 @@ pub struct Chart {
     pub series: Vec<Series>,
 }
 
-const COLORS: [&str; 8] = [
-    "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
-];
-const W: f64 = 780.0;
-const H: f64 = 440.0;
-const L: f64 = 80.0;
-const R: f64 = 230.0;
-const T: f64 = 40.0;
-const B: f64 = 60.0;
+/// Size of one chart, pixels.
+const SIZE: (u32, u32) = (900, 480);
 
-fn nice_ticks(lo: f64, hi: f64, log: bool) -> Vec<f64> {
-    if log {
-        let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
-        return (a..=b)
-            .map(|e| 10f64.powi(e))
-            .filter(|v| *v >= lo * 0.999 && *v <= hi * 1.001)
-            .collect();
-    }
-    let span = (hi - lo).max(1e-300);
-    let raw = span / 6.0;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= 7.0)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() * step;
-    (0..20)
-        .map(|k| first + k as f64 * step)
-        .take_while(|v| *v <= hi + step * 1e-9)
-        .collect()
+/// The embedded font, registered once as "sans-serif".
+fn font() -> &'static str {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // A font that cannot be parsed would only lose the text of the
+        // plots; the test `png_has_text` keeps this from happening unseen.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            include_bytes!("../assets/DejaVuSans.ttf"),
+        );
+    });
+    "sans-serif"
 }
 
-fn fmt_tick(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if v.abs() >= 1e4 || v.abs() < 1e-2 {
-        format!("{v:.0e}")
-    } else {
-        let s = format!("{v:.3}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+/// A plotting failure, as text (plotters' errors borrow the backend).
+#[derive(Debug)]
+pub struct PlotError(pub String);
+
+impl std::fmt::Display for PlotError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "plot: {}", self.0)
     }
+}
+
+impl std::error::Error for PlotError {}
+
+fn err<E: std::fmt::Display>(e: E) -> PlotError {
+    PlotError(e.to_string())
+}
+
+fn color(k: usize) -> RGBColor {
+    const C: [(u8, u8, u8); 8] = [
+        (0x1f, 0x77, 0xb4),
+        (0xd6, 0x27, 0x28),
+        (0x2c, 0xa0, 0x2c),
+        (0xff, 0x7f, 0x0e),
+        (0x94, 0x67, 0xbd),
+        (0x8c, 0x56, 0x4b),
+        (0xe3, 0x77, 0xc2),
+        (0x7f, 0x7f, 0x7f),
+    ];
+    let (r, g, b) = C[k % C.len()];
+    RGBColor(r, g, b)
 }
 
 impl Chart {
-    /// The SVG text.
-    pub fn svg(&self) -> String {
-        let mut xs = vec![];
-        let mut ys = vec![];
+    /// Is a point drawable on this chart's axes?
+    fn ok(&self, x: f64, y: f64) -> bool {
+        x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0) && (!self.log_y || y > 0.0)
+    }
+
+    /// The axis ranges: padded for linear axes, whole decades for log.
+    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+        let (mut xs, mut ys) = (vec![], vec![]);
         for s in &self.series {
             for (i, (x, y)) in s.points.iter().enumerate() {
-                if x.is_finite()
-                    && y.is_finite()
-                    && (!self.log_x || *x > 0.0)
-                    && (!self.log_y || *y > 0.0)
-                {
-                    xs.push(*x);
-                    ys.push(*y);
-                    if let Some((lo, hi)) = s.bars.as_ref().and_then(|b| b.get(i)) {
-                        if !self.log_y || *lo > 0.0 {
-                            ys.push(*lo);
+                if !self.ok(*x, *y) {
+                    continue;
+                }
+                xs.push(*x);
+                ys.push(*y);
+                if let Some((lo, hi)) = s.bars.as_ref().and_then(|b| b.get(i)) {
+                    for v in [*lo, *hi] {
+                        if self.ok(*x, v) {
+                            ys.push(v);
                         }
-                        ys.push(*hi);
                     }
                 }
             }
@@ -123,13 +134,11 @@ impl Chart {
                     (a.min(*x), b.max(*x))
                 });
             if !lo.is_finite() {
-                return (if log { 0.1 } else { 0.0 }, 1.0);
+                return if log { (0.1, 1.0) } else { (0.0, 1.0) };
             }
             if log {
-                (
-                    10f64.powf(lo.log10().floor()),
-                    10f64.powf(hi.log10().ceil()),
-                )
+                let (a, b) = (lo.log10().floor(), hi.log10().ceil());
+                (10f64.powf(a), 10f64.powf(if b > a { b } else { a + 1.0 }))
             } else {
                 if lo == hi {
                     lo -= 1.0;
@@ -139,139 +148,241 @@ impl Chart {
                 (lo - pad, hi + pad)
             }
         };
-        let (x0, x1) = range(&xs, self.log_x);
-        let (y0, y1) = range(&ys, self.log_y);
-        let tx = |x: f64| {
-            let f = if self.log_x {
-                (x.log10() - x0.log10()) / (x1.log10() - x0.log10())
-            } else {
-                (x - x0) / (x1 - x0)
-            };
-            L + f * (W - L - R)
-        };
-        let ty = |y: f64| {
-            let f = if self.log_y {
-                (y.log10() - y0.log10()) / (y1.log10() - y0.log10())
-            } else {
-                (y - y0) / (y1 - y0)
-            };
-            H - B - f * (H - T - B)
-        };
-        let mut o = String::new();
-        o.push_str(&format!(r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" font-family="sans-serif" font-size="12">"#));
-        o.push_str(&format!(r#"<rect width="{W}" height="{H}" fill="white"/>"#));
-        o.push_str(&format!(
-            r#"<text x="{}" y="22" text-anchor="middle" font-size="15">{}</text>"#,
-            (W - R + L) / 2.0,
-            esc(&self.title)
-        ));
-        for v in nice_ticks(x0, x1, self.log_x) {
-            let x = tx(v);
-            o.push_str(&format!(
-                r##"<line x1="{x:.1}" y1="{T}" x2="{x:.1}" y2="{}" stroke="#e5e5e5"/>"##,
-                H - B
-            ));
-            o.push_str(&format!(
-                r#"<text x="{x:.1}" y="{}" text-anchor="middle">{}</text>"#,
-                H - B + 16.0,
-                fmt_tick(v)
-            ));
+        (range(&xs, self.log_x), range(&ys, self.log_y))
+    }
+
+    /// Draws the chart on `area`.
+    fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
+        area.fill(&WHITE).map_err(err)?;
+        let ((x0, x1), (y0, y1)) = self.ranges();
+        match (self.log_x, self.log_y) {
+            (false, false) => self.draw_on(area, x0..x1, y0..y1),
+            (true, false) => self.draw_on(area, (x0..x1).log_scale(), y0..y1),
+            (false, true) => self.draw_on(area, x0..x1, (y0..y1).log_scale()),
+            (true, true) => self.draw_on(area, (x0..x1).log_scale(), (y0..y1).log_scale()),
         }
-        for v in nice_ticks(y0, y1, self.log_y) {
-            let y = ty(v);
-            o.push_str(&format!(
-                r##"<line x1="{L}" y1="{y:.1}" x2="{}" y2="{y:.1}" stroke="#e5e5e5"/>"##,
-                W - R
-            ));
-            o.push_str(&format!(
-                r#"<text x="{}" y="{:.1}" text-anchor="end">{}</text>"#,
-                L - 6.0,
-                y + 4.0,
-                fmt_tick(v)
-            ));
-        }
-        o.push_str(&format!(
-            r#"<rect x="{L}" y="{T}" width="{}" height="{}" fill="none" stroke="black"/>"#,
-            W - L - R,
-            H - T - B
-        ));
-        o.push_str(&format!(
-            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-            (W - R + L) / 2.0,
-            H - 18.0,
-            esc(&self.x_label)
-        ));
-        o.push_str(&format!(
-            r#"<text transform="translate(18,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            (H - B + T) / 2.0,
-            esc(&self.y_label)
-        ));
+    }
+
+    fn draw_on<DB, X, Y>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        xr: X,
+        yr: Y,
+    ) -> Result<(), PlotError>
+    where
+        DB: DrawingBackend,
+        X: AsRangedCoord<Value = f64>,
+        Y: AsRangedCoord<Value = f64>,
+        X::CoordDescType: ValueFormatter<f64>,
+        Y::CoordDescType: ValueFormatter<f64>,
+    {
+        let f = font();
+        let mut cc = ChartBuilder::on(area)
+            .caption(&self.title, (f, 17))
+            .margin(12)
+            .x_label_area_size(42)
+            .y_label_area_size(78)
+            .build_cartesian_2d(xr, yr)
+            .map_err(err)?;
+        cc.configure_mesh()
+            .x_desc(self.x_label.as_str())
+            .y_desc(self.y_label.as_str())
+            .label_style((f, 12))
+            .axis_desc_style((f, 13))
+            .light_line_style(RGBColor(0xee, 0xee, 0xee))
+            .draw()
+            .map_err(err)?;
         for (k, s) in self.series.iter().enumerate() {
-            let c = COLORS[k % COLORS.len()];
+            let c = color(k);
             let pts: Vec<(f64, f64)> = s
                 .points
                 .iter()
-                .filter(|(x, y)| {
-                    x.is_finite()
-                        && y.is_finite()
-                        && (!self.log_x || *x > 0.0)
-                        && (!self.log_y || *y > 0.0)
-                })
-                .map(|(x, y)| (tx(*x), ty(*y)))
+                .copied()
+                .filter(|(x, y)| self.ok(*x, *y))
                 .collect();
+            let style = c.stroke_width(2);
+            let legend = move |(x, y): (i32, i32)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(3))
+            };
             if s.markers {
-                for (x, y) in &pts {
-                    o.push_str(&format!(
-                        r#"<circle cx="{x:.1}" cy="{y:.1}" r="3" fill="{c}"/>"#
-                    ));
-                }
-            } else if !pts.is_empty() {
-                let d: Vec<String> = pts.iter().map(|(x, y)| format!("{x:.1},{y:.1}")).collect();
-                let dash = if s.dashed {
-                    r#" stroke-dasharray="6,4""#
+                // Dashed markers: hollow (e.g. "after" beside "before").
+                let fill = if s.dashed {
+                    c.stroke_width(1)
                 } else {
-                    ""
+                    c.filled()
                 };
-                o.push_str(&format!(
-                    r#"<polyline fill="none" stroke="{c}" stroke-width="1.5"{dash} points="{}"/>"#,
-                    d.join(" ")
-                ));
+                cc.draw_series(pts.iter().map(|p| Circle::new(*p, 3, fill)))
+                    .map_err(err)?
+                    .label(s.label.as_str())
+                    .legend(legend);
+            } else if s.dashed {
+                cc.draw_series(DashedLineSeries::new(pts, 6, 4, style))
+                    .map_err(err)?
+                    .label(s.label.as_str())
+                    .legend(legend);
+            } else {
+                cc.draw_series(LineSeries::new(pts, style))
+                    .map_err(err)?
+                    .label(s.label.as_str())
+                    .legend(legend);
             }
             if let Some(bars) = &s.bars {
-                for ((x, _), (lo, hi)) in s.points.iter().zip(bars) {
-                    if x.is_finite() && (!self.log_y || *lo > 0.0) {
-                        o.push_str(&format!(r#"<line x1="{0:.1}" y1="{1:.1}" x2="{0:.1}" y2="{2:.1}" stroke="{c}"/>"#, tx(*x), ty(*lo), ty(*hi)));
-                    }
-                }
+                let bars: Vec<_> = s
+                    .points
+                    .iter()
+                    .zip(bars)
+                    .filter(|((x, y), (lo, hi))| {
+                        self.ok(*x, *y) && self.ok(*x, *lo) && self.ok(*x, *hi)
+                    })
+                    .map(|((x, y), (lo, hi))| ErrorBar::new_vertical(*x, *lo, *y, *hi, c, 6))
+                    .collect();
+                cc.draw_series(bars).map_err(err)?;
             }
-            let ly = T + 14.0 + 18.0 * k as f64;
-            o.push_str(&format!(
-                r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{c}" stroke-width="3"/>"#,
-                W - R + 10.0,
-                W - R + 30.0
-            ));
-            o.push_str(&format!(
-                r#"<text x="{}" y="{}">{}</text>"#,
-                W - R + 36.0,
-                ly + 4.0,
-                esc(&s.label)
-            ));
         }
-        o.push_str("</svg>\n");
-        o
+        if self.series.iter().any(|s| !s.label.is_empty()) {
+            cc.configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.4))
+                .label_font((f, 12))
+                .draw()
+                .map_err(err)?;
+        }
+        Ok(())
     }
 
-    /// Writes the SVG to `path`.
+    /// The chart as SVG text.
     ///
     /// # Errors
-    /// The file cannot be written.
-    pub fn write(&self, path: &Path) -> std::io::Result<()> {
-        std::fs::write(path, self.svg())
+    /// A drawing failure.
+    pub fn svg(&self) -> Result<String, PlotError> {
+        Figure::one(self.clone()).svg()
+    }
+
+    /// Writes `<stem>.svg` and `<stem>.png`; returns both paths.
+    ///
+    /// # Errors
+    /// A drawing failure or a file that cannot be written.
+    pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        Figure::one(self.clone()).write(stem)
     }
 }
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+/// Charts stacked top to bottom in one picture.
+#[derive(Clone, Debug, Default)]
+pub struct Figure {
+    /// The charts, top first.
+    pub charts: Vec<Chart>,
+}
+
+impl Figure {
+    /// A figure of one chart.
+    pub fn one(chart: Chart) -> Self {
+        Self {
+            charts: vec![chart],
+        }
+    }
+
+    fn size(&self) -> (u32, u32) {
+        (SIZE.0, SIZE.1 * self.charts.len().max(1) as u32)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), PlotError> {
+        root.fill(&WHITE).map_err(err)?;
+        let areas = root.split_evenly((self.charts.len().max(1), 1));
+        for (c, a) in self.charts.iter().zip(&areas) {
+            c.draw(a)?;
+        }
+        root.present().map_err(err)
+    }
+
+    /// The figure as SVG text.
+    ///
+    /// # Errors
+    /// A drawing failure.
+    pub fn svg(&self) -> Result<String, PlotError> {
+        let mut s = String::new();
+        self.draw(SVGBackend::with_string(&mut s, self.size()).into_drawing_area())?;
+        Ok(s)
+    }
+
+    /// Writes the figure as PNG to `path`.
+    ///
+    /// # Errors
+    /// A drawing failure or a file that cannot be written.
+    pub fn png(&self, path: &Path) -> Result<(), PlotError> {
+        self.draw(BitMapBackend::new(path, self.size()).into_drawing_area())
+    }
+
+    /// Writes `<stem>.svg` and `<stem>.png` (creating the directory);
+    /// returns both paths.
+    ///
+    /// # Errors
+    /// A drawing failure or a file that cannot be written.
+    pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        if let Some(d) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(d).map_err(|e| PlotError(format!("{}: {e}", d.display())))?;
+        }
+        let svg = stem.with_extension("svg");
+        let png = stem.with_extension("png");
+        std::fs::write(&svg, self.svg()?)
+            .map_err(|e| PlotError(format!("{}: {e}", svg.display())))?;
+        self.png(&png)?;
+        Ok(vec![svg, png])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chart() -> Chart {
+        let mut s = Series::line(
+            "a",
+            (1..50)
+                .map(|i| (f64::from(i), f64::from(i).sqrt()))
+                .collect(),
+        );
+        s.bars = Some(s.points.iter().map(|(_, y)| (y * 0.9, y * 1.1)).collect());
+        let mut d = Series::line("b", vec![(1.0, 2.0), (40.0, 0.5), (f64::NAN, 1.0)]);
+        d.dashed = true;
+        Chart {
+            title: "test chart".into(),
+            x_label: "x [s]".into(),
+            y_label: "y [m]".into(),
+            log_x: true,
+            log_y: true,
+            series: vec![s, d],
+        }
+    }
+
+    #[test]
+    fn svg_has_the_text_and_every_series() {
+        let s = chart().svg().unwrap();
+        assert!(s.starts_with("<svg"), "{}", &s[..40]);
+        // plotters writes each text on its own line inside <text>.
+        for t in ["test chart", "x [s]", "y [m]", "a", "b"] {
+            assert!(s.lines().any(|l| l.trim() == t), "{t:?} missing");
+        }
+    }
+
+    #[test]
+    fn png_has_text() {
+        // A title drawn in black on white: with the embedded font the
+        // caption's band holds dark pixels; without it, it would be blank.
+        let dir = std::env::temp_dir().join(format!("rins-plot-{}", std::process::id()));
+        let files = chart().write(&dir.join("c")).unwrap();
+        let png = &files[1];
+        let img = std::fs::read(png).unwrap();
+        assert_eq!(&img[1..4], b"PNG");
+        let mut blank = Chart::default();
+        blank.series.clear();
+        let mut titled = blank.clone();
+        titled.title = "WWWWWWWWWW".into();
+        let (pb, pt) = (dir.join("blank.png"), dir.join("titled.png"));
+        Figure::one(blank).png(&pb).unwrap();
+        Figure::one(titled).png(&pt).unwrap();
+        assert_ne!(std::fs::read(&pb).unwrap(), std::fs::read(&pt).unwrap());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

@@ -22,10 +22,27 @@ pub struct Decoded {
     pub out_of_order: u64,
     /// Navigation states: (t_us, p_n).
     pub nav: Vec<(u64, [f32; 3])>,
-    /// Calibration results: (bias, M k, status).
-    pub calibrations: Vec<([f32; 3], [f32; 3], u8)>,
+    /// Calibration frames in the order sent: the record stored at power-up
+    /// (status `CAL_STATUS_STORED`), refusals (their reason codes) and
+    /// accepted results (status 0).
+    pub calibrations: Vec<CalibrationFrame>,
+    /// Changes of an accepted calibration from the stored record:
+    /// (bias rad/s, `M k`).
+    pub calibration_changes: Vec<([f32; 3], [f32; 3])>,
     /// Faults: (t_us, code, count).
     pub faults: Vec<(u64, u8, u32)>,
+}
+
+/// One `Calibration` frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibrationFrame {
+    /// Gyro bias, rad/s.
+    pub bias_radps: [f32; 3],
+    /// Column `M k` (installation errors and the table axis' scale error).
+    pub m_k: [f32; 3],
+    /// 0 accepted, `CAL_STATUS_STORED` the record found at power-up, else
+    /// the refusal code.
+    pub status: u8,
 }
 
 /// Decodes a byte stream; `meta` is what the recording is told about the
@@ -89,13 +106,74 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 bias_radps,
                 m_k,
                 status,
-            } => r.calibrations.push((bias_radps, m_k, status)),
+            } => r.calibrations.push(CalibrationFrame {
+                bias_radps,
+                m_k,
+                status,
+            }),
+            Telemetry::CalibrationChange {
+                d_bias_radps,
+                d_m_k,
+            } => r.calibration_changes.push((d_bias_radps, d_m_k)),
             Telemetry::Fault { t_us, code, count } => r.faults.push((t_us, code, count)),
             Telemetry::Ack { .. } => {}
         }
     }
     r.stats = d.stats;
     r
+}
+
+/// The link statistics as JSON (`rins record --json`).
+pub fn link_json(d: &Decoded) -> serde_json::Value {
+    let s = &d.stats;
+    serde_json::json!({
+        "frames": s.frames, "lost": s.lost, "corrupt": s.corrupt, "overflow": s.overflow,
+        "out_of_order": d.out_of_order, "imu_samples": d.recording.imu.len(),
+        "encoder_reads": d.recording.table.len(), "faults": d.faults,
+    })
+}
+
+/// The board's calibration frames as `rins-calibration/1` (the format
+/// `rins calibrate` writes and `rins navigate --calibration` reads): the
+/// last accepted result as the calibration, every frame in order, the
+/// stored record and the change from it. `None` when no frame came.
+pub fn calibration_json(d: &Decoded, axis: core_nav::table::Axis) -> Option<serde_json::Value> {
+    use firmware::app::CAL_STATUS_STORED;
+    let v = |a: &[f32; 3]| a.map(f64::from).to_vec();
+    let accepted = d.calibrations.iter().rev().find(|c| c.status == 0);
+    let stored = d
+        .calibrations
+        .iter()
+        .find(|c| c.status == CAL_STATUS_STORED);
+    if d.calibrations.is_empty() {
+        return None;
+    }
+    let frame = |c: &CalibrationFrame| {
+        let what = match c.status {
+            0 => "accepted".to_string(),
+            CAL_STATUS_STORED => "stored at power-up".to_string(),
+            code => format!("refused (reason {code})"),
+        };
+        serde_json::json!({"bias_radps": v(&c.bias_radps), "m_k": v(&c.m_k), "status": c.status, "what": what})
+    };
+    let zero = [0.0f64; 3].to_vec();
+    let mut out = serde_json::json!({
+        "format": "rins-calibration/1",
+        "method": "board",
+        "axis": hal_sim::recording::axis_name(axis),
+        "board": {
+            "frames": d.calibrations.iter().map(frame).collect::<Vec<_>>(),
+            "stored_at_power_up": stored.map(frame),
+            "change_from_stored": d.calibration_changes.last().map(|(b, m)| serde_json::json!({"bias_radps": v(b), "m_k": v(m)})),
+        },
+    });
+    if let (Some(a), Some(o)) = (accepted, out.as_object_mut()) {
+        o.insert(
+            "gyro".into(),
+            serde_json::json!({"bias_radps": v(&a.bias_radps), "m_k": v(&a.m_k), "q_per_radps": zero, "asymmetry": zero}),
+        );
+    }
+    Some(out)
 }
 
 /// A one-line account of the link.

@@ -3,17 +3,37 @@
 //! against the table rate.
 
 use crate::nav::TrajRow;
-use crate::plot::{Chart, Series};
+use crate::plot::{Chart, PlotError, Series};
 use crate::reproduce::Row;
 use core_nav::real::wrap_pi;
 
-fn dif(a: f64, b: f64) -> f64 {
+/// The angle error `a - b` wrapped to (-180, 180], deg.
+fn angle_error_deg(a: f64, b: f64) -> f64 {
     wrap_pi((a - b).to_radians()).to_degrees()
 }
 
-/// (file name, SVG) for one or more runs of a static base with attitude
-/// `base_rph_deg`, each named.
-pub fn nav_charts(runs: &[(&str, &[TrajRow])], base_rph_deg: [f64; 3]) -> Vec<(String, String)> {
+/// A chart and the file stem it is written under (`<stem>.svg`,
+/// `<stem>.png`).
+pub struct NamedChart {
+    /// File stem.
+    pub stem: String,
+    /// The chart.
+    pub chart: Chart,
+}
+
+impl NamedChart {
+    /// Writes `<dir>/<stem>.svg` and `.png`; returns the paths.
+    ///
+    /// # Errors
+    /// A drawing failure or a file that cannot be written.
+    pub fn write(&self, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, PlotError> {
+        self.chart.write(&dir.join(&self.stem))
+    }
+}
+
+/// The charts of one or more runs of a static base with attitude
+/// `base_rph_deg` (deg), each named.
+pub fn nav_charts(runs: &[(&str, &[TrajRow])], base_rph_deg: [f64; 3]) -> Vec<NamedChart> {
     let t0 = |r: &[TrajRow]| r.first().map_or(0.0, |x| x.t_s);
     let series = |f: &dyn Fn(&TrajRow) -> f64, suffix: &str| -> Vec<Series> {
         runs.iter()
@@ -33,59 +53,61 @@ pub fn nav_charts(runs: &[(&str, &[TrajRow])], base_rph_deg: [f64; 3]) -> Vec<(S
     let mut pos = series(&|r| r.ned_m[0].hypot(r.ned_m[1]), "");
     pos.iter_mut()
         .for_each(|s| s.label = format!("{} horizontal", s.label));
-    out.push((
-        "position_error.svg".to_string(),
-        Chart {
+    out.push(NamedChart {
+        stem: "position_error".into(),
+        chart: Chart {
             title: "Horizontal position error".into(),
             x_label: "time [s]".into(),
             y_label: "m".into(),
             series: pos,
             ..Chart::default()
-        }
-        .svg(),
-    ));
+        },
+    });
     let vel = series(&|r| r.v_mps[0].hypot(r.v_mps[1]), " horizontal");
-    out.push((
-        "velocity_error.svg".to_string(),
-        Chart {
+    out.push(NamedChart {
+        stem: "velocity_error".into(),
+        chart: Chart {
             title: "Horizontal velocity error".into(),
             x_label: "time [s]".into(),
             y_label: "m/s".into(),
             series: vel,
             ..Chart::default()
-        }
-        .svg(),
+        },
+    });
+    let mut att = series(&|r| angle_error_deg(r.rph_deg[0], base_rph_deg[0]), " roll");
+    att.extend(series(
+        &|r| angle_error_deg(r.rph_deg[1], base_rph_deg[1]),
+        " pitch",
     ));
-    let mut att = series(&|r| dif(r.rph_deg[0], base_rph_deg[0]), " roll");
-    att.extend(series(&|r| dif(r.rph_deg[1], base_rph_deg[1]), " pitch"));
-    out.push((
-        "roll_pitch_error.svg".to_string(),
-        Chart {
+    out.push(NamedChart {
+        stem: "roll_pitch_error".into(),
+        chart: Chart {
             title: "Roll and pitch errors (base)".into(),
             x_label: "time [s]".into(),
             y_label: "deg".into(),
             series: att,
             ..Chart::default()
-        }
-        .svg(),
-    ));
-    let hdg = series(&|r| dif(r.rph_deg[2], base_rph_deg[2]), " heading");
-    out.push((
-        "heading_error.svg".to_string(),
-        Chart {
+        },
+    });
+    let hdg = series(
+        &|r| angle_error_deg(r.rph_deg[2], base_rph_deg[2]),
+        " heading",
+    );
+    out.push(NamedChart {
+        stem: "heading_error".into(),
+        chart: Chart {
             title: "Heading error (base)".into(),
             x_label: "time [s]".into(),
             y_label: "deg".into(),
             series: hdg,
             ..Chart::default()
-        }
-        .svg(),
-    ));
+        },
+    });
     out
 }
 
 /// RMS errors against the table rate per mode (Fig. 8/9/11/12 kinds).
-pub fn reproduce_charts(rows: &[Row], imu: &str) -> Vec<(String, String)> {
+pub fn reproduce_charts(rows: &[Row], imu: &str) -> Vec<NamedChart> {
     let modes = [
         "rotary-partial",
         "rotary-full",
@@ -120,34 +142,36 @@ pub fn reproduce_charts(rows: &[Row], imu: &str) -> Vec<(String, String)> {
         series: by(f),
         ..Chart::default()
     };
+    let named = |stem: &str, chart: Chart| NamedChart {
+        stem: stem.into(),
+        chart,
+    };
     vec![
-        (
-            "rms_position.svg".into(),
+        named(
+            "rms_position",
             chart(
                 "RMS horizontal position error",
                 "m",
                 &|r| r.h_pos_rms_m,
                 true,
-            )
-            .svg(),
+            ),
         ),
-        (
-            "rms_velocity.svg".into(),
+        named(
+            "rms_velocity",
             chart(
                 "RMS horizontal velocity error",
                 "m/s",
                 &|r| r.h_vel_rms_mps,
                 true,
-            )
-            .svg(),
+            ),
         ),
-        (
-            "rms_roll_pitch.svg".into(),
-            chart("RMS roll error", "deg", &|r| r.roll_rms_deg, true).svg(),
+        named(
+            "rms_roll_pitch",
+            chart("RMS roll error", "deg", &|r| r.roll_rms_deg, true),
         ),
-        (
-            "rms_heading.svg".into(),
-            chart("RMS heading error", "deg", &|r| r.heading_rms_deg, true).svg(),
+        named(
+            "rms_heading",
+            chart("RMS heading error", "deg", &|r| r.heading_rms_deg, true),
         ),
     ]
 }

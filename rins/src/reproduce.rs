@@ -301,3 +301,73 @@ pub fn mode_mean(rows: &[Row], mode: &str) -> Option<(f64, f64)> {
         v.iter().map(|r| r.h_vel_rms_mps).sum::<f64>() / n,
     ))
 }
+
+/// The table a person reads: per rate and mode, then the mean over rates
+/// beside the paper's figures, and how far best is from conventional and
+/// from the noise floor.
+pub fn text_report(rows: &[Row], imu: &str, runs: usize) -> String {
+    use std::fmt::Write;
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "{} ({} runs per cell): RMS over 5 min of navigation",
+        imu, runs
+    );
+    let _ = writeln!(
+        o,
+        "{:<15} {:>6} {:>12} {:>10} {:>9} {:>9} {:>10}",
+        "mode", "deg/s", "pos [m]", "vel [m/s]", "roll [d]", "pitch [d]", "hdg [d]"
+    );
+    for r in rows {
+        let _ = writeln!(
+            o,
+            "{:<15} {:>6} {:>12.1} {:>10.3} {:>9.4} {:>9.4} {:>10.4}",
+            r.mode,
+            r.rate_dps,
+            r.h_pos_rms_m,
+            r.h_vel_rms_mps,
+            r.roll_rms_deg,
+            r.pitch_rms_deg,
+            r.heading_rms_deg
+        );
+    }
+    let _ = writeln!(o, "\nmean over all rates (paper's figures beside ours):");
+    let _ = writeln!(
+        o,
+        "{:<15} {:>12} {:>10} {:>14} {:>12}",
+        "mode", "pos [m]", "vel [m/s]", "paper pos [m]", "paper vel"
+    );
+    for mode in [
+        "conventional",
+        "rotary-partial",
+        "rotary-full",
+        "rotary-best",
+        "noise-floor",
+    ] {
+        if let Some((p, v)) = mode_mean(rows, mode) {
+            let paper = PAPER.iter().find(|(i, m, _, _)| *i == imu && *m == mode);
+            let (pp, pv) = paper.map_or(("-".to_string(), "-".to_string()), |(_, _, p, v)| {
+                (format!("{p:.1}"), format!("{v:.1}"))
+            });
+            let note = if mode == "conventional" {
+                "   (paper: several km after 5 min)"
+            } else {
+                ""
+            };
+            let _ = writeln!(o, "{mode:<15} {p:>12.1} {v:>10.3} {pp:>14} {pv:>12}{note}");
+        }
+    }
+    if let (Some((conv, _)), Some((best, _)), Some((floor, _))) = (
+        mode_mean(rows, "conventional"),
+        mode_mean(rows, "rotary-best"),
+        mode_mean(rows, "noise-floor"),
+    ) {
+        let _ = writeln!(
+            o,
+            "\nrotary-best is {:.1}x better than conventional and {:.2}x the noise floor",
+            conv / best,
+            best / floor
+        );
+    }
+    o
+}

@@ -459,3 +459,63 @@ fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
     assert!(d2.stats.lost >= 40, "{:?}", d2.stats);
     assert!(d2.recording.imu.len() < d.recording.imu.len());
 }
+
+#[test]
+fn the_stored_record_is_read_at_power_up_and_the_change_reported() {
+    use core_nav::table::Axis;
+    use firmware::app::{decode_record, CAL_RECORD, CAL_STATUS_STORED};
+    // First power-up: calibrate and store.
+    let first = navigating_board(31);
+    let record = first.app.stored.expect("stored");
+    let cal1 = decode_record(&record, Axis::Z).unwrap();
+    // Second power-up of the same sensor (a new bench seed: the turn-on
+    // bias has changed, as between real power-ups), the record read back
+    // from flash before the calibration starts.
+    let cfg = AppConfig {
+        scheme: Scheme::Continuous {
+            rate: 90f64.to_radians(),
+        },
+        static_s: 5.0,
+        rotate_s: 15.0,
+        ..AppConfig::default()
+    };
+    let mut b = Board::new(ImuSpec::icm42688(), cfg, 32);
+    assert!(b.app.restore(&record));
+    assert_eq!(b.app.previous.map(|c| c.bias), Some(cal1.bias));
+    b.run(25.0);
+    assert_eq!(b.app.mode, Mode::Navigating);
+    let cal2 = b.app.calibration.expect("calibrated again");
+    let (d_bias, d_mk) = b.app.change.expect("change reported");
+    // The change is the new calibration minus the stored record, exactly
+    // (both in f64; the record holds f32).
+    assert_eq!(d_bias, cal2.bias - cal1.bias);
+    assert_eq!(d_mk, cal2.m_k - cal1.m_k);
+    // What the host decodes from the link: the stored record first, then
+    // the accepted result and its change; calibration.json carries all three
+    // and reads back as a calibration.
+    let d = rins::record::decode(
+        b.frames.iter().copied(),
+        hal_sim::recording::Meta::default(),
+    );
+    assert_eq!(
+        d.calibrations.first().map(|c| c.status),
+        Some(CAL_STATUS_STORED)
+    );
+    assert_eq!(d.calibrations.last().map(|c| c.status), Some(0));
+    assert_eq!(d.calibration_changes.len(), 1);
+    assert_eq!(
+        d.calibration_changes[0].0,
+        [d_bias.x as f32, d_bias.y as f32, d_bias.z as f32]
+    );
+    let j = rins::record::calibration_json(&d, Axis::Z).unwrap();
+    let back = rins::calibrate::from_json(&j).unwrap();
+    assert_eq!(back.bias.map(|x| x as f32), cal2.bias.map(|x| x as f32));
+    assert!(j["board"]["change_from_stored"]["bias_radps"].is_array());
+    // Blank flash (erased: 0xFF) or a damaged record: nothing is kept.
+    let mut fresh = Board::new(ImuSpec::icm42688(), AppConfig::default(), 33);
+    assert!(!fresh.app.restore(&[0xFF; CAL_RECORD]));
+    let mut bad = record;
+    bad[5] ^= 1;
+    assert!(!fresh.app.restore(&bad));
+    assert!(fresh.app.previous.is_none());
+}

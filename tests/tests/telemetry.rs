@@ -54,6 +54,10 @@ fn samples() -> Vec<Telemetry> {
             m_k: [1e-3, 0.0, 3e-3],
             status: 0,
         },
+        Telemetry::CalibrationChange {
+            d_bias_radps: [-2e-5, 0.0, 4e-6],
+            d_m_k: [1e-4, -3e-5, 0.0],
+        },
         Telemetry::Fault {
             t_us: 40_000,
             code: 3,
@@ -94,7 +98,7 @@ fn every_frame_type_round_trips() {
             d.stats.lost,
             d.stats.overflow
         ),
-        (6, 0, 0, 0)
+        (samples().len() as u64, 0, 0, 0)
     );
 }
 

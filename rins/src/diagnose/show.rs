@@ -3,7 +3,7 @@
 //! deviation before / after).
 
 use super::{blocks, Diagnosis, CHANNELS};
-use crate::plot::{Chart, Series};
+use crate::plot::{Chart, PlotError, Series};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -220,8 +220,7 @@ pub fn model_adev(n: &super::noise::Noise, tau: f64) -> f64 {
 ///
 /// # Errors
 /// The directory or a file cannot be written.
-pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
-    std::fs::create_dir_all(dir)?;
+pub fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<std::path::PathBuf>, PlotError> {
     let det = &d.details;
     let mut out = vec![];
     let len = ((1.0 / det.dt_s.max(1e-9)).round() as usize).max(1);
@@ -254,9 +253,7 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
                 c.series.push(se);
             }
         }
-        let p = dir.join(format!("residual_{label}.svg"));
-        c.write(&p)?;
-        out.push(p);
+        out.extend(c.write(&dir.join(format!("residual_{label}")))?);
         // Allan deviation before / after.
         let mut a = Chart {
             title: format!("{label} residual: Allan deviation before / after"),
@@ -298,9 +295,7 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
                 }
             }
         }
-        let p = dir.join(format!("allan_{label}.svg"));
-        a.write(&p)?;
-        out.push(p);
+        out.extend(a.write(&dir.join(format!("allan_{label}")))?);
     }
     // Harmonic spectrum against the table angle, before / after.
     let span = det.theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
@@ -336,9 +331,7 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> std::io::Result<Vec<std::path::PathBu
                 h.series.push(se);
             }
         }
-        let p = dir.join("harmonics.svg");
-        h.write(&p)?;
-        out.push(p);
+        out.extend(h.write(&dir.join("harmonics"))?);
     }
     Ok(out)
 }

@@ -1,6 +1,7 @@
 //! `rins simulate`.
 
-use crate::{parse_effect, progress_bar, AxisArg, SchemeArg};
+use super::{parse_effect, AxisArg, SchemeArg};
+use rins::progress_bar;
 
 use anyhow::{anyhow, Context, Result};
 use core_nav::scheme::Scheme;

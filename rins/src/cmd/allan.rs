@@ -1,0 +1,71 @@
+//! `rins allan`: Allan deviation of the six channels (the longest still
+//! stretch of a rotating recording), noise fit, JSON and plot.
+
+use super::{read_recording, write_file};
+use anyhow::{bail, Result};
+use rins::{allan as allan_mod, calibrate, progress_bar};
+use std::path::PathBuf;
+
+/// `rins allan`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Write the rins-allan/1 JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the plot (SVG) here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Runs `rins allan`.
+pub fn run(a: &Args) -> Result<()> {
+    let mut rec = read_recording(&a.rec)?;
+    // Allan deviation characterises a still sensor: when the table turned,
+    // use the longest static stretch and say so.
+    let moved = rec
+        .table
+        .windows(2)
+        .any(|w| (w[1].angle_rad - w[0].angle_rad).abs() > 1e-9);
+    if moved {
+        let segs = calibrate::segments(&rec, 10.0, 0.5);
+        let longest = segs
+            .iter()
+            .filter(|s| s.rate_radps == 0.0)
+            .max_by(|a, b| (a.t1_s - a.t0_s).total_cmp(&(b.t1_s - b.t0_s)));
+        let Some(s) = longest else {
+            bail!(
+                "{}: the table turns throughout; Allan deviation needs a still sensor",
+                a.rec.display()
+            );
+        };
+        println!(
+            "the table turns in this recording: using its longest still stretch, {:.1}-{:.1} s",
+            s.t0_s, s.t1_s
+        );
+        let (t0, t1) = (s.t0_s, s.t1_s);
+        rec.imu.retain(|r| r.t_s >= t0 && r.t_s <= t1);
+    }
+    if rec.imu.len() < 100 {
+        bail!(
+            "{}: {} IMU samples are too few for an Allan deviation",
+            a.rec.display(),
+            rec.imu.len()
+        );
+    }
+    let pb = progress_bar("allan");
+    let chs = allan_mod::compute(&rec);
+    pb.finish_and_clear();
+    print!("{}", allan_mod::report(&chs));
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string(&allan_mod::to_json(&chs))?)?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.plot {
+        for f in allan_mod::figure(&chs, &a.rec.display().to_string()).write(p)? {
+            println!("wrote {}", f.display());
+        }
+    }
+    Ok(())
+}

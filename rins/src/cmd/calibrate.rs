@@ -1,0 +1,47 @@
+//! `rins calibrate`: the gyro errors table rotation excites, from a
+//! recording's phases.
+
+use super::{read_recording, write_file};
+use anyhow::{Context, Result};
+use rins::calibrate::{self, Method};
+use std::path::PathBuf;
+
+/// `rins calibrate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Write the calibration (rins-calibration/1) here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Method.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub method: Method,
+    /// Use data from this time on, s.
+    #[arg(long, default_value_t = 0.0)]
+    pub from_s: f64,
+    /// Use data up to this time, s (default: 120 s, the power-up calibration).
+    #[arg(long, default_value_t = 120.0)]
+    pub to_s: f64,
+    /// The commanded table rate, deg/s: steady phases must reach it within 2 %.
+    #[arg(long)]
+    pub rate_dps: Option<f64>,
+}
+
+/// Runs `rins calibrate`.
+pub fn run(a: &Args) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    let r = calibrate::calibrate(
+        &rec,
+        (a.from_s, a.to_s),
+        a.method,
+        a.rate_dps.map(f64::to_radians),
+    )
+    .with_context(|| format!("calibrating {}", a.rec.display()))?;
+    print!("{}", calibrate::report(&r));
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&calibrate::to_json(&r))?)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,73 @@
+//! `rins diagnose`: the physics a recording shows that the nominal model
+//! left out ([`rins::diagnose`]).
+
+use super::{read_recording, write_file};
+use anyhow::{anyhow, bail, Context, Result};
+use rins::progress_bar;
+use std::path::PathBuf;
+
+/// `rins diagnose`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// The nominal model (TOML: `earth_rate = true|false`, `[known.<effect
+    /// id>]` tables of parameters the model already has); default: the
+    /// spec's (gravity, earth rate, table motion, bias, scale,
+    /// misalignment, white noise).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Write the rins-diagnose/1 JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Write the plots (SVG) into this directory.
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
+    /// Block length of the regression, s.
+    #[arg(long, default_value_t = 0.2)]
+    pub block_s: f64,
+    /// Write the re-simulated run here: the same recording with the IMU
+    /// samples the fitted model predicts (nominal terms and every finding,
+    /// no noise), to compare or to diagnose again.
+    #[arg(long)]
+    pub resim: Option<PathBuf>,
+}
+
+/// Runs `rins diagnose`.
+pub fn run(a: &Args) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    let mut opts = rins::diagnose::Options::default();
+    if let Some(m) = &a.model {
+        let text =
+            std::fs::read_to_string(m).with_context(|| format!("reading {}", m.display()))?;
+        opts.model =
+            rins::diagnose::Model::from_toml(&text).map_err(|e| anyhow!("{}: {e}", m.display()))?;
+    }
+    if !(a.block_s.is_finite() && a.block_s > 0.0) {
+        bail!("--block-s must be a positive number of seconds");
+    }
+    opts.block_s = a.block_s;
+    let pb = progress_bar("diagnose");
+    let name = a.rec.display().to_string();
+    let d = rins::diagnose::run(&rec, &name, &opts).map_err(|e| anyhow!("{name}: {e}"))?;
+    pb.finish_and_clear();
+    print!("{}", rins::diagnose::show::text(&d, &name));
+    if let Some(dir) = &a.plots {
+        for p in rins::diagnose::show::plots(&d, dir)
+            .with_context(|| format!("writing plots to {}", dir.display()))?
+        {
+            println!("wrote {}", p.display());
+        }
+    }
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&d.to_json())?)?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(dir) = &a.resim {
+        d.resimulated(&rec)
+            .write(dir)
+            .map_err(|e| anyhow!("writing {}: {e}", dir.display()))?;
+        println!("wrote {} (the re-simulated run)", dir.display());
+    }
+    Ok(())
+}

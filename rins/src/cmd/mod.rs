@@ -1,0 +1,67 @@
+//! The command line: one module per command, each holding its arguments
+//! (clap) and a short `run`; the work is in the `rins` library.
+
+pub mod allan;
+pub mod calibrate;
+pub mod demo;
+pub mod diagnose;
+pub mod navigate;
+pub mod qemu_replay;
+pub mod record;
+pub mod reproduce;
+pub mod simulate;
+pub mod study;
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::ValueEnum;
+use hal_sim::recording::Recording;
+use std::path::Path;
+
+/// Table axis.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum AxisArg {
+    /// Sensor x.
+    X,
+    /// Sensor y.
+    Y,
+    /// Sensor z.
+    Z,
+}
+
+/// Rotation scheme.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum SchemeArg {
+    /// One way at --rate-dps.
+    Continuous,
+    /// --turns whole turns forward, then back.
+    Reciprocating,
+    /// --positions positions with --dwell-s dwell.
+    Indexed,
+    /// No rotation.
+    Still,
+}
+
+/// Parses `NAME=VALUE`.
+pub fn parse_effect(s: &str) -> Result<(String, f64)> {
+    let Some((name, value)) = s.split_once('=') else {
+        bail!("--effect takes NAME=VALUE, got {s:?}");
+    };
+    let v: f64 = value
+        .trim()
+        .parse()
+        .with_context(|| format!("--effect {name}: {value:?} is not a number"))?;
+    Ok((name.trim().to_string(), v))
+}
+
+/// Reads a recording with a progress message.
+pub fn read_recording(p: &Path) -> Result<Recording> {
+    Recording::read(p).map_err(|e| anyhow!("{e}"))
+}
+
+/// Writes text to a file, naming it on failure.
+pub fn write_file(p: &Path, text: &str) -> Result<()> {
+    if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+    }
+    std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
+}

@@ -1,0 +1,103 @@
+//! `rins navigate`: strapdown navigation of a recording (trajectory-v1),
+//! its errors against a static base, plots.
+
+use super::{read_recording, write_file};
+use anyhow::{bail, Context, Result};
+use core_nav::calib::GyroCalibration;
+use rins::calibrate;
+use rins::nav::{self, NavOptions};
+use rins::progress_bar;
+use rins::report;
+use std::path::{Path, PathBuf};
+
+/// `rins navigate`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The recording directory.
+    pub rec: PathBuf,
+    /// Gyro calibration (rins-calibration/1, from `rins calibrate --json`).
+    #[arg(long)]
+    pub calibration: Option<PathBuf>,
+    /// Output directory: trajectory.csv and plots.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Start navigating at this time, s (default: the first sample).
+    #[arg(long, default_value_t = 0.0)]
+    pub start_s: f64,
+    /// Stop at this time, s.
+    #[arg(long)]
+    pub end_s: Option<f64>,
+    /// Navigate in f32, as the MCU does.
+    #[arg(long)]
+    pub f32: bool,
+    /// Hold the height (long static runs: the vertical channel diverges).
+    #[arg(long)]
+    pub hold_height: bool,
+    /// Also write the summary as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+fn load_calibration(p: &Path) -> Result<GyroCalibration> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{}: not JSON", p.display()))?;
+    calibrate::from_json(&v).with_context(|| format!("{}", p.display()))
+}
+
+/// Runs `rins navigate`.
+pub fn run(a: &Args) -> Result<()> {
+    let rec = read_recording(&a.rec)?;
+    let calibration = a
+        .calibration
+        .as_ref()
+        .map(|p| load_calibration(p))
+        .transpose()?;
+    if let Some(c) = &calibration {
+        if c.axis != rec.meta.axis {
+            bail!(
+                "the calibration is for table axis {:?}, the recording turns about {:?}",
+                c.axis,
+                rec.meta.axis
+            );
+        }
+    }
+    let opt = NavOptions {
+        start_s: a.start_s,
+        end_s: a.end_s,
+        calibration,
+        f32: a.f32,
+        hold_height: a.hold_height,
+        gimbals: None,
+    };
+    let pb = progress_bar("navigate");
+    let rows = nav::navigate(&rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    pb.finish_and_clear();
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    write_file(&a.out.join("trajectory.csv"), &nav::trajectory_csv(&rows))?;
+    let m = &rec.meta;
+    let base = [m.roll_deg, m.pitch_deg, m.heading_deg];
+    for chart in report::nav_charts(&[("run", &rows)], base) {
+        chart.write(&a.out)?;
+    }
+    let e = nav::static_errors(&rows, base);
+    let faults = rows.last().map_or(0, |r| r.faults);
+    println!(
+        "{} samples navigated ({} refused) -> {}",
+        rows.len(),
+        faults,
+        a.out.display()
+    );
+    println!("errors against a static base (the recording's attitude, the start point):");
+    println!("  {}", nav::summary(&e));
+    println!("  final horizontal position error {:.2} m", e.h_pos_end_m);
+    if let Some(p) = &a.json {
+        write_file(
+            p,
+            &serde_json::to_string_pretty(
+                &serde_json::json!({"errors": e, "refused_steps": faults}),
+            )?,
+        )?;
+    }
+    Ok(())
+}
