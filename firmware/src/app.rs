@@ -310,6 +310,19 @@ impl App {
         });
     }
 
+    /// The IMU did not come up at power-up: `wrong_device` when WHO_AM_I
+    /// was not the ICM-42688-P's, else a bus failure. Counted and reported
+    /// (`Fault`); safe state: stopped (no calibration, no navigation, the
+    /// motor off).
+    pub fn on_imu_init_failed(&mut self, t_us: u64, wrong_device: bool) {
+        let f = if wrong_device {
+            Fault::WrongDevice
+        } else {
+            Fault::SpiError
+        };
+        self.stop(t_us, f);
+    }
+
     fn stop(&mut self, t_us: u64, f: Fault) {
         self.duty = 0.0;
         self.ctrl.reset();

@@ -126,19 +126,27 @@ mod app {
         let cs = gpioa
             .pa4
             .into_push_pull_output_in_state(stm32f4xx_hal::gpio::PinState::High);
-        let imu = ExclusiveDevice::new_no_delay(spi, cs)
-            .ok()
-            .map(Icm42688::new)
-            .and_then(|mut imu| {
+        // Safe state if the IMU does not come up: no IMU, no navigation,
+        // the motor never runs; the reason is counted and sent (below).
+        let mut imu_failed: Option<bool> = None;
+        let imu = match ExclusiveDevice::new_no_delay(spi, cs) {
+            Ok(dev) => {
+                let mut imu = Icm42688::new(dev);
                 match imu.init(Config::default(), &mut CycleDelay) {
                     Ok(()) => Some(imu),
-                    Err(_) => {
-                        // Safe state: no IMU, no navigation, the motor never runs.
-                        defmt::error!("IMU init failed (wrong WHO_AM_I or SPI)");
+                    Err(e) => {
+                        let wrong = matches!(e, firmware::icm42688::Error::WrongDevice(_));
+                        defmt::error!("IMU init failed (wrong WHO_AM_I: {})", wrong);
+                        imu_failed = Some(wrong);
                         None
                     }
                 }
-            });
+            }
+            Err(_) => {
+                imu_failed = Some(false);
+                None
+            }
+        };
         let qei = Qei::new(dp.TIM4, (gpiob.pb6, gpiob.pb7), &mut rcc);
         let (_, (ch1, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
         let mut pwm = ch1.with(gpioa.pa8);
@@ -156,6 +164,9 @@ mod app {
             Ok(a) => a,
             Err(_) => defmt::panic!("default configuration out of range"), // init only: a build error
         };
+        if let Some(wrong_device) = imu_failed {
+            app.on_imu_init_failed(0, wrong_device);
+        }
         // The record the last power-up stored: reported, kept to report
         // the new calibration's change from it; the board still calibrates.
         let mut written = None;

@@ -70,36 +70,6 @@ pub fn calibrate_then_dual(
     (f, start)
 }
 
-/// Simulates `duration_s` of a run whose single-axis part is `single` (a z
-/// scheme started at `static_s`) until `switch_s`, then `dual` (inner angle
-/// continuing from where it was).
-#[allow(clippy::too_many_arguments)]
-pub fn simulate_dual(
-    spec: ImuSpec,
-    site: Site,
-    single: &Profile,
-    static_s: f64,
-    dual: &DualAxisProfile,
-    switch_s: f64,
-    duration_s: f64,
-    seed: u64,
-) -> DualRun {
-    let inner_at_switch = single.at(switch_s - static_s).angle;
-    let kin = |t: f64| -> Gimbals {
-        if t < switch_s {
-            let r = single.at(t - static_s);
-            ((r.angle, r.rate), (0.0, 0.0))
-        } else {
-            let d = dual.at(t - switch_s);
-            (
-                (inner_at_switch + d.inner.angle, d.inner.rate),
-                (d.outer.angle, d.outer.rate),
-            )
-        }
-    };
-    simulate_gimbals(spec, site, &kin, duration_s, seed)
-}
-
 /// Simulates `duration_s` of any gimbal motion `kin`.
 pub fn simulate_gimbals(
     spec: ImuSpec,

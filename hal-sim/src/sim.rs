@@ -90,18 +90,60 @@ impl SimConfig {
     ///
     /// # Errors
     /// An unknown name, with the list of known ones.
-    pub fn set_effect(&mut self, name: &str, value: f64) -> Result<(), String> {
-        let e = EFFECTS.iter().find(|e| e.name == name).ok_or_else(|| {
-            let names: Vec<&str> = EFFECTS.iter().map(|e| e.name).collect();
-            format!("unknown effect {name:?}; known: {}", names.join(", "))
-        })?;
+    pub fn set_effect(&mut self, name: &str, value: f64) -> Result<(), SimError> {
+        let e = EFFECTS
+            .iter()
+            .find(|e| e.name == name)
+            .ok_or_else(|| SimError::UnknownEffect(name.to_string()))?;
         if !value.is_finite() {
-            return Err(format!("effect {name}: value {value} is not finite"));
+            return Err(SimError::NonFiniteEffect {
+                name: name.to_string(),
+                value,
+            });
         }
         (e.apply)(self, value);
         Ok(())
     }
 }
+
+/// Why a simulation cannot run.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimError {
+    /// `--effect` names no knob of [`EFFECTS`].
+    UnknownEffect(String),
+    /// An effect's value is NaN or infinite.
+    NonFiniteEffect {
+        /// The knob.
+        name: String,
+        /// Its value.
+        value: f64,
+    },
+    /// Duration or a sample rate is not positive.
+    NotPositive,
+    /// An IMU or encoder latency outside [0, 1] s.
+    Latency,
+    /// The rotation scheme is out of the table's limits.
+    Scheme(core_nav::NavError),
+}
+
+impl std::fmt::Display for SimError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SimError::UnknownEffect(name) => {
+                let names: Vec<&str> = EFFECTS.iter().map(|e| e.name).collect();
+                write!(f, "unknown effect {name:?}; known: {}", names.join(", "))
+            }
+            SimError::NonFiniteEffect { name, value } => {
+                write!(f, "effect {name}: value {value} is not finite")
+            }
+            SimError::NotPositive => f.write_str("duration and rates must be positive"),
+            SimError::Latency => f.write_str("latencies must be within [0, 1] s"),
+            SimError::Scheme(e) => write!(f, "rotation scheme: {e}"),
+        }
+    }
+}
+
+impl std::error::Error for SimError {}
 
 /// A named knob of the world: every effect id of
 /// `shared/spec/diagnose-v1.md` and the other error-model terms.
@@ -426,14 +468,14 @@ const PHYS_DT: f64 = 1e-3;
 /// # Errors
 /// A scheme out of range, non-positive rates or duration, a latency above
 /// 1 s.
-pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Recording, String> {
+pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Recording, SimError> {
     if !(cfg.duration_s > 0.0 && cfg.imu_rate_hz > 0.0 && cfg.encoder_rate_hz > 0.0) {
-        return Err("duration and rates must be positive".into());
+        return Err(SimError::NotPositive);
     }
     if !(0.0..=1.0).contains(&cfg.imu.latency_s) || !(0.0..=1.0).contains(&cfg.encoder.latency_s) {
-        return Err("latencies must be within [0, 1] s".into());
+        return Err(SimError::Latency);
     }
-    let profile = Profile::new(cfg.scheme, cfg.limits).map_err(|e| e.to_string())?;
+    let profile = Profile::new(cfg.scheme, cfg.limits).map_err(SimError::Scheme)?;
     let mut imu = ImuModel::new(cfg.imu.clone(), cfg.seed);
     if let Some(v) = cfg.g_sens_override {
         imu.g_sens = nalgebra::Matrix3::from_fn(|r, c| v * G_SENS_PATTERN[r][c]);

@@ -80,10 +80,10 @@ pub fn run(rate_dps: f64, seed: u64, progress: &mut dyn FnMut(f64)) -> Result<De
     };
     cfg.static_s = STATIC_S;
     cfg.seed = seed;
-    let rotary = simulate(&cfg, &mut |f| progress(0.3 * f)).map_err(|e| anyhow!(e))?;
+    let rotary = simulate(&cfg, &mut |f| progress(0.3 * f))?;
     let mut twin = cfg.clone();
     twin.scheme = Scheme::Still;
-    let conventional = simulate(&twin, &mut |f| progress(0.3 + 0.3 * f)).map_err(|e| anyhow!(e))?;
+    let conventional = simulate(&twin, &mut |f| progress(0.3 + 0.3 * f))?;
     progress(0.6);
     let calibration = calibrate::calibrate(
         &rotary,

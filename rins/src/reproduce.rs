@@ -84,28 +84,18 @@ pub struct Row {
 const CAL_S: f64 = 120.0;
 const NAV_S: f64 = 300.0;
 
-/// Simulates and processes one run; returns the navigation errors.
+/// Simulates and processes one run of `plan` at `rate_dps` (deg/s) for
+/// any spec (ablations: one error term at a time); returns the navigation
+/// errors.
 ///
 /// # Errors
 /// A simulation or calibration failure (with its reason).
 pub fn run_one(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Result<StaticErrors> {
-    run_one_spec(spec, plan, rate_dps, seed)
-}
-
-/// [`run_one`] for any spec (ablations: one error term at a time).
-///
-/// # Errors
-/// As [`run_one`].
-pub fn run_one_spec(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Result<StaticErrors> {
     let rate = rate_dps.to_radians();
-    if let Plan::DualAxis { positions } = plan {
-        return run_dual(spec, positions, rate, seed);
-    }
     let (imu, scheme, static_s) = match plan {
+        Plan::DualAxis { positions } => return run_dual(spec, positions, rate, seed),
         Plan::Conventional => (spec.clone(), Scheme::Still, 0.0),
-        Plan::Paper { .. } | Plan::Best | Plan::DualAxis { .. } => {
-            (spec.clone(), Scheme::Continuous { rate }, 60.0)
-        }
+        Plan::Paper { .. } | Plan::Best => (spec.clone(), Scheme::Continuous { rate }, 60.0),
         Plan::NoiseFloor => {
             let mut w = ImuSpec::ideal();
             w.gyro.white = spec.gyro.white;
@@ -117,7 +107,7 @@ pub fn run_one_spec(spec: &ImuSpec, plan: Plan, rate_dps: f64, seed: u64) -> Res
     cfg.scheme = scheme;
     cfg.static_s = static_s;
     cfg.seed = seed;
-    let rec = simulate(&cfg, &mut |_| {}).map_err(anyhow::Error::msg)?;
+    let rec = simulate(&cfg, &mut |_| {})?;
     let cal = calibration(&rec, plan)?;
     let start_s = if plan == Plan::Conventional {
         60.0

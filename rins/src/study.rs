@@ -21,12 +21,14 @@
 //! background without it, at multiples of the grade's datasheet value (its
 //! test is a likelihood ratio, not a regression: no Fisher MDE).
 
+use crate::diagnose::DiagnoseError;
 use crate::diagnose::{fisher, lambda_50, run as diagnose_run, Options};
 use core_nav::earth::EARTH_RATE_RADPS;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
+use hal_sim::sim::SimError;
 use hal_sim::sim::{simulate, SimConfig};
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -70,13 +72,52 @@ pub const SCALES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
 /// Multiples of the datasheet bias instability.
 pub const BI_SCALES: [f64; 4] = [0.1, 0.3, 1.0, 3.0];
 
+/// Why a study cannot run.
+#[derive(Debug)]
+pub enum StudyError {
+    /// No sensor profile of that name.
+    UnknownGrade(String),
+    /// A simulation failed.
+    Sim(SimError),
+    /// A diagnosis failed.
+    Diagnose(DiagnoseError),
+    /// The thread pool failed.
+    Worker(String),
+}
+
+impl std::fmt::Display for StudyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StudyError::UnknownGrade(g) => {
+                write!(f, "unknown grade {g:?} ({})", ImuSpec::NAMES.join(", "))
+            }
+            StudyError::Sim(e) => write!(f, "simulation: {e}"),
+            StudyError::Diagnose(e) => write!(f, "diagnose: {e}"),
+            StudyError::Worker(e) => f.write_str(e),
+        }
+    }
+}
+
+impl std::error::Error for StudyError {}
+
+impl From<SimError> for StudyError {
+    fn from(e: SimError) -> Self {
+        StudyError::Sim(e)
+    }
+}
+
+impl From<DiagnoseError> for StudyError {
+    fn from(e: DiagnoseError) -> Self {
+        StudyError::Diagnose(e)
+    }
+}
+
 /// A grade by name (the `rins simulate --imu` profiles).
 ///
 /// # Errors
 /// An unknown name.
-pub fn grade(name: &str) -> Result<ImuSpec, String> {
-    ImuSpec::by_name(name)
-        .ok_or_else(|| format!("unknown grade {name:?} ({})", ImuSpec::NAMES.join(", ")))
+pub fn grade(name: &str) -> Result<ImuSpec, StudyError> {
+    ImuSpec::by_name(name).ok_or_else(|| StudyError::UnknownGrade(name.to_string()))
 }
 
 /// One run's background for grade `g` about `axis`.
@@ -106,15 +147,15 @@ pub fn background(g: &ImuSpec, axis: Axis, wander: bool, seed: u64) -> SimConfig
 
 /// Puts `effect` at `mag` into `c` (earth_rate: `mag` rad/s more than the
 /// earth's; bias_instability: `mag` x the grade's value).
-fn inject(c: &mut SimConfig, g: &ImuSpec, effect: EffectId, mag: f64) -> Result<(), String> {
+fn inject(c: &mut SimConfig, g: &ImuSpec, effect: EffectId, mag: f64) -> Result<(), StudyError> {
     match effect {
-        EffectId::EarthRate => c.set_effect(effect.as_str(), 1.0 + mag / EARTH_RATE_RADPS),
+        EffectId::EarthRate => Ok(c.set_effect(effect.as_str(), 1.0 + mag / EARTH_RATE_RADPS)?),
         EffectId::BiasInstability => {
             c.imu.gyro.bias_instability = g.gyro.bias_instability * mag;
             c.imu.gyro.bi_tau_s = g.gyro.bi_tau_s;
             Ok(())
         }
-        _ => c.set_effect(effect.as_str(), mag),
+        _ => Ok(c.set_effect(effect.as_str(), mag)?),
     }
 }
 
@@ -176,7 +217,7 @@ pub struct Study {
 
 /// Effects named in a run, most significant first (bias instability
 /// dropped unless `keep_bi`), and the look-alikes the findings name.
-fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), String> {
+fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), StudyError> {
     let rec = simulate(c, &mut |_| {})?;
     let d = diagnose_run(&rec, "study", &Options::default())?;
     let found = d
@@ -204,7 +245,7 @@ pub fn mde(
     effect: EffectId,
     axis: Axis,
     reference: f64,
-) -> Result<Mde, String> {
+) -> Result<Mde, StudyError> {
     // The noise model from the run as recorded; the signature from twins
     // without quantisation (encoder and output), whose rounding changes with
     // any change of the signal and would pass for part of it.
@@ -253,7 +294,7 @@ pub fn run(
     seed: u64,
     threads: usize,
     progress: &(dyn Fn(f64) + Sync),
-) -> Result<Study, String> {
+) -> Result<Study, StudyError> {
     let specs: Vec<ImuSpec> = grades.iter().map(|g| grade(g)).collect::<Result<_, _>>()?;
     // MDEs first (two noise-free-difference runs each).
     let mut mdes = vec![];
@@ -331,7 +372,7 @@ pub fn run(
     let done = AtomicUsize::new(0);
     #[allow(clippy::type_complexity)]
     let results: Mutex<Vec<(usize, (Vec<String>, Vec<String>))>> = Mutex::new(vec![]);
-    let failure: Mutex<Option<String>> = Mutex::new(None);
+    let failure: Mutex<Option<StudyError>> = Mutex::new(None);
     let total = jobs.len().max(1);
     std::thread::scope(|sc| {
         for _ in 0..threads.max(1) {
@@ -370,7 +411,9 @@ pub fn run(
     if let Some(e) = failure.into_inner().ok().flatten() {
         return Err(e);
     }
-    let mut results = results.into_inner().map_err(|e| e.to_string())?;
+    let mut results = results
+        .into_inner()
+        .map_err(|_| StudyError::Worker("a worker thread panicked".into()))?;
     results.sort_by_key(|r| r.0);
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     let mut null_runs = BTreeMap::new();

@@ -519,3 +519,32 @@ fn the_stored_record_is_read_at_power_up_and_the_change_reported() {
     assert!(!fresh.app.restore(&bad));
     assert!(fresh.app.previous.is_none());
 }
+
+#[test]
+fn a_wrong_imu_at_power_up_is_reported_and_the_motor_never_runs() {
+    // The board's init: WHO_AM_I is not the ICM-42688-P's (the chip model
+    // answers 0x12), so the driver refuses it and the app is told.
+    let mut bc = BenchConfig::new(ImuSpec::icm42688());
+    bc.seed = 5;
+    let bench = Bench::new(bc).shared();
+    bench.borrow_mut().chip.faults.who_am_i = Some(0x12);
+    let mut imu = Icm42688::new(SimSpi::new(bench.clone()));
+    let err = imu.init(Config::default(), &mut SimDelay(bench.clone()));
+    assert!(matches!(
+        err,
+        Err(firmware::icm42688::Error::WrongDevice(0x12))
+    ));
+    let mut app = App::new(AppConfig::default()).unwrap();
+    app.on_imu_init_failed(0, true);
+    assert_eq!(app.mode, Mode::Stopped(Fault::WrongDevice));
+    assert_eq!(app.faults.get(Fault::WrongDevice), 1);
+    assert_eq!(app.duty(), 0.0);
+    // Sent over the link.
+    let mut frames = vec![];
+    app.drain(|f| frames.extend_from_slice(f));
+    let d = rins::record::decode(frames, hal_sim::recording::Meta::default());
+    assert_eq!(d.faults, vec![(0, Fault::WrongDevice as u8, 1)]);
+    // Encoder reads and commands to start do not run the motor: no IMU.
+    app.on_encoder(20_000, 0);
+    assert_eq!(app.duty(), 0.0);
+}

@@ -350,11 +350,18 @@ fn bad_recordings_are_errors() {
     let mut rec = simulate(&config(Axis::Z, false, 16, 60.0), &mut |_| {}).unwrap();
     rec.imu[100].gyro_radps[0] = f64::NAN;
     let e = run(&rec, "bad", &Options::default()).unwrap_err();
-    assert!(e.contains("imu sample 100"), "{e}");
+    assert!(
+        matches!(
+            e,
+            rins::diagnose::DiagnoseError::NonFiniteImu { index: 100, .. }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("imu sample 100"), "{e}");
     rec.imu.truncate(10);
-    assert!(run(&rec, "short", &Options::default())
-        .unwrap_err()
-        .contains("too short"));
+    let e = run(&rec, "short", &Options::default()).unwrap_err();
+    assert_eq!(e, rins::diagnose::DiagnoseError::TooShort { samples: 10 });
+    assert!(e.to_string().contains("too short"));
 }
 
 #[test]

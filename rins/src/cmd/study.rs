@@ -1,7 +1,7 @@
 //! `rins study`: the blind study of diagnose ([`rins::study`]).
 
 use super::write_file;
-use anyhow::{anyhow, Result};
+use anyhow::Result;
 use rins::progress_bar;
 use std::path::PathBuf;
 
@@ -46,8 +46,7 @@ pub fn run(a: &Args) -> Result<()> {
         a.seed,
         threads,
         &|f| pb.set_position((f * 1000.0) as u64),
-    )
-    .map_err(|e| anyhow!(e))?;
+    )?;
     pb.finish_and_clear();
     let md = rins::study::markdown(&s);
     print!("{md}");

@@ -5,7 +5,7 @@
 use super::design::{quad, solve, Design};
 use super::effects;
 use super::select::{params_of, select};
-use super::{check, final_noise, predict, Options, BIC_MARGIN, NOMINAL_PRIOR};
+use super::{check, final_noise, predict, DiagnoseError, Options, BIC_MARGIN, NOMINAL_PRIOR};
 use hal_sim::catalogue::EffectId;
 use hal_sim::recording::Recording;
 use nalgebra::{DMatrix, DVector};
@@ -44,12 +44,12 @@ pub fn fisher(
     sig_with: &Recording,
     effect: EffectId,
     opts: &Options,
-) -> Result<(f64, usize, usize), String> {
+) -> Result<(f64, usize, usize), DiagnoseError> {
     for r in [null, sig_null, sig_with] {
         check(r)?;
     }
     if null.imu.len() != sig_with.imu.len() || sig_null.imu.len() != sig_with.imu.len() {
-        return Err("the runs have different lengths".into());
+        return Err(DiagnoseError::DifferentLengths);
     }
     let pn = predict(null, 1.0, 0.0);
     let first = Design::build(&pn, effects::library(&pn), opts, None);

@@ -45,6 +45,7 @@
 
 mod design;
 pub mod effects;
+mod error;
 pub mod finding;
 pub mod fisher;
 pub mod locate;
@@ -55,6 +56,7 @@ mod report;
 mod select;
 pub mod show;
 
+pub use error::DiagnoseError;
 pub use finding::{Details, Diagnosis, Finding, FitFigures, Parameter, Unexplained};
 pub use fisher::{allan_excess, fisher, lambda_50};
 pub use model::{Model, Options};
@@ -89,7 +91,11 @@ pub const NOMINAL_PRIOR: f64 = 0.05;
 /// # Errors
 /// A recording too short, without encoder reads, or with non-finite
 /// samples; a model that names parameters the library does not have.
-pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diagnosis, String> {
+pub fn run(
+    rec: &Recording,
+    recording_name: &str,
+    opts: &Options,
+) -> Result<Diagnosis, DiagnoseError> {
     check(rec)?;
     let model = &opts.model;
     let earth_scale = if model.earth_rate { 1.0 } else { 0.0 };
@@ -110,10 +116,10 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
     apply_known(&mut p, model)?;
     let blocks_n = (p.t_s.len() - 1) / ((opts.block_s / dt_of(&p)).round() as usize).max(1);
     if !(opts.block_s.is_finite() && opts.block_s > 0.0) || blocks_n < 50 {
-        return Err(format!(
-            "{blocks_n} blocks of {} s: the regression needs at least 50 (a shorter block or a longer recording)",
-            opts.block_s
-        ));
+        return Err(DiagnoseError::TooFewBlocks {
+            blocks: blocks_n,
+            block_s: opts.block_s,
+        });
     }
     let lib = |p: &Prediction| -> Vec<Candidate> {
         effects::library(p)
@@ -158,14 +164,14 @@ pub fn run(rec: &Recording, recording_name: &str, opts: &Options) -> Result<Diag
             break;
         }
     }
-    report(
+    Ok(report(
         recording_name,
         &p,
         &d,
         &sel,
         &judged,
         time_offset - dt_known,
-    )
+    ))
 }
 
 /// Noise models re-fitted to the residual of a selection.

@@ -3,7 +3,7 @@
 //! measurements.
 
 use super::effects::{self, Candidate};
-use super::Prediction;
+use super::{DiagnoseError, Prediction};
 use hal_sim::catalogue::EffectId;
 use std::collections::BTreeMap;
 
@@ -40,7 +40,11 @@ impl Model {
     ///
     /// # Errors
     /// Bad TOML, an unknown key, effect id or parameter, a non-number.
-    pub fn from_toml(text: &str) -> Result<Self, String> {
+    pub fn from_toml(text: &str) -> Result<Self, DiagnoseError> {
+        Self::parse(text).map_err(DiagnoseError::Model)
+    }
+
+    fn parse(text: &str) -> Result<Self, String> {
         let t: toml::Table = text.parse().map_err(|e| format!("{e}"))?;
         let mut m = Self::default();
         for (k, v) in &t {
@@ -111,7 +115,7 @@ impl Default for Options {
 }
 
 /// The known effects' contribution, subtracted from the measurements.
-pub(super) fn apply_known(p: &mut Prediction, model: &Model) -> Result<(), String> {
+pub(super) fn apply_known(p: &mut Prediction, model: &Model) -> Result<(), DiagnoseError> {
     for (id, params) in &model.known {
         if id == "time_offset" || id == "earth_rate" {
             continue; // in the prediction itself
@@ -142,10 +146,10 @@ pub(super) fn apply_known(p: &mut Prediction, model: &Model) -> Result<(), Strin
         }
         let all: Vec<String> = cands.iter().flat_map(|c| c.params(p)).collect();
         if let Some(bad) = params.keys().find(|k| !all.contains(k)) {
-            return Err(format!(
-                "model: known.{id}.{bad} is not a parameter of {id} in this run; its parameters: {}",
+            return Err(DiagnoseError::Model(format!(
+                "known.{id}.{bad} is not a parameter of {id} in this run; its parameters: {}",
                 all.join(", ")
-            ));
+            )));
         }
     }
     Ok(())

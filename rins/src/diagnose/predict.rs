@@ -2,6 +2,7 @@
 //! motion, sample by sample, the block means the regression runs on, and
 //! the input checks.
 
+use super::DiagnoseError;
 use hal_sim::recording::Recording;
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 
@@ -244,25 +245,26 @@ pub fn encoder_quantum(a: &[f64]) -> f64 {
     }
 }
 
-pub(super) fn check(rec: &Recording) -> Result<(), String> {
+pub(super) fn check(rec: &Recording) -> Result<(), DiagnoseError> {
     if rec.imu.len() < 200 {
-        return Err(format!(
-            "{} IMU samples: too short to diagnose (need at least 200)",
-            rec.imu.len()
-        ));
+        return Err(DiagnoseError::TooShort {
+            samples: rec.imu.len(),
+        });
     }
     if rec.table.len() < 5 {
-        return Err(format!(
-            "{} encoder reads: need at least 5",
-            rec.table.len()
-        ));
+        return Err(DiagnoseError::TooFewEncoderReads {
+            reads: rec.table.len(),
+        });
     }
     for (i, r) in rec.imu.iter().enumerate() {
         if !(r.t_s.is_finite()
             && r.gyro_radps.iter().all(|v| v.is_finite())
             && r.accel_mps2.iter().all(|v| v.is_finite()))
         {
-            return Err(format!("imu sample {i} (t = {} s) is not finite", r.t_s));
+            return Err(DiagnoseError::NonFiniteImu {
+                index: i,
+                t_s: r.t_s,
+            });
         }
     }
     if let Some(i) = rec
@@ -270,7 +272,7 @@ pub(super) fn check(rec: &Recording) -> Result<(), String> {
         .iter()
         .position(|r| !(r.t_s.is_finite() && r.angle_rad.is_finite()))
     {
-        return Err(format!("encoder read {i} is not finite"));
+        return Err(DiagnoseError::NonFiniteEncoder { index: i });
     }
     Ok(())
 }

@@ -69,7 +69,7 @@ pub(super) fn report(
     sel: &Selection,
     judged: &[(usize, Judged)],
     time_offset_fitted: f64,
-) -> Result<Diagnosis, String> {
+) -> Diagnosis {
     let ln_n = (d.rows().max(2) as f64).ln();
     let nominal_fit = d.fit(&[]);
     let res_before = residuals(p, &model_samples(p, d, &nominal_fit));
@@ -254,7 +254,7 @@ pub(super) fn report(
     let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
     let unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
 
-    Ok(Diagnosis {
+    Diagnosis {
         recording: name.to_string(),
         findings,
         unexplained,
@@ -271,5 +271,5 @@ pub(super) fn report(
             t_s: p.t_s.clone(),
             whiteness,
         },
-    })
+    }
 }
