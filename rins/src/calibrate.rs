@@ -334,7 +334,7 @@ fn describe(segs: &[Segment]) -> String {
         .join(", ")
 }
 
-fn v3(v: &Vector3<f64>) -> Value {
+fn vec3_json(v: &Vector3<f64>) -> Value {
     json!([v.x, v.y, v.z])
 }
 
@@ -346,20 +346,20 @@ pub fn to_json(r: &Calibration) -> Value {
         "method": r.method,
         "axis": axis_name(g.axis),
         "gyro": {
-            "bias_radps": v3(&g.bias),
-            "m_k": v3(&g.m_k),
-            "q_per_radps": v3(&g.q),
-            "asymmetry": v3(&g.a),
+            "bias_radps": vec3_json(&g.bias),
+            "m_k": vec3_json(&g.m_k),
+            "q_per_radps": vec3_json(&g.q),
+            "asymmetry": vec3_json(&g.a),
         },
         "predicted_sigma": {
-            "bias_radps": v3(&g.sigma_bias),
-            "m_k": v3(&g.sigma_m_k),
-            "q_per_radps": v3(&g.sigma_q),
-            "asymmetry": v3(&g.sigma_a),
+            "bias_radps": vec3_json(&g.sigma_bias),
+            "m_k": vec3_json(&g.sigma_m_k),
+            "q_per_radps": vec3_json(&g.sigma_q),
+            "asymmetry": vec3_json(&g.sigma_a),
         },
         "phases": r.phases.iter().map(|(s, p)| json!({
             "t_start_s": s.t0_s, "t_end_s": s.t1_s, "rate_dps": p.rate_radps.to_degrees(),
-            "duration_s": p.duration_s, "mean_gyro_radps": v3(&p.mean_w), "arw_rad_per_sqrt_s": v3(&p.arw),
+            "duration_s": p.duration_s, "mean_gyro_radps": vec3_json(&p.mean_w), "arw_rad_per_sqrt_s": vec3_json(&p.arw),
         })).collect::<Vec<_>>(),
     })
 }

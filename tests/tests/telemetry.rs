@@ -211,6 +211,20 @@ proptest! {
     }
 
     #[test]
+    fn cobs_matches_the_cobs_crate(data in proptest::collection::vec(any::<u8>(), 0..600)) {
+        // An independent implementation (jamesmunns/cobs.rs): byte for byte
+        // the same encoding, and each decodes the other's.
+        let mut ours = vec![0u8; cobs::max_encoding_length(data.len())];
+        let n = cobs_encode(&data, &mut ours).unwrap();
+        let theirs = cobs::encode_vec(&data);
+        prop_assert_eq!(&ours[..n], &theirs[..]);
+        let mut back = vec![0u8; data.len() + 1];
+        let m = cobs_decode(&theirs, &mut back).unwrap();
+        prop_assert_eq!(&back[..m], &data[..]);
+        prop_assert_eq!(cobs::decode_vec(&ours[..n]).unwrap(), data);
+    }
+
+    #[test]
     fn decoder_never_panics_on_noise(noise in proptest::collection::vec(any::<u8>(), 0..2000)) {
         let (got, d) = decode_all(&noise);
         prop_assert!(got.len() as u64 <= d.stats.frames);
