@@ -21,7 +21,18 @@
 //! (`v_b = c_a_b v_a`); a vector's last suffix is the frame it is expressed
 //! in; `w_ab_c` is the rate of `b` relative to `a` expressed in `c`.
 //!
-//! Ideal sensor on a static base (recording-v1):
+//! ## Modules
+//!
+//! [`earth`] (WGS-84, gravity, radii), [`site`] (the site and the ideal
+//! sensor: the one home of that physics for every crate), [`attitude`],
+//! [`strapdown`] (the mechanization), [`table`] (axis, table angle, encoder
+//! scale and interpolation, the "still" threshold), [`scheme`] (rotation
+//! schemes), [`control`] (the table's rate controller, board and simulator),
+//! [`calib`] (power-up calibration), [`multipos`] (multi-position
+//! calibration), [`align`] (levelling), [`allan`] (Allan deviation),
+//! [`real`] (the float type), [`error`].
+//!
+//! Ideal sensor on a static base (recording-v1; [`site::Site::ideal_imu`]):
 //! `w_is_s = c_b_s c_n_b w_ie_n + theta_dot k`,
 //! `w_ie_n = Omega_e [cos lat, 0, -sin lat]`,
 //! `f_s = c_b_s c_n_b (a_n - g_n)`, `g_n = [0, 0, g]` (level and at rest an

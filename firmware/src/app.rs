@@ -1,12 +1,15 @@
 //! The board's logic as one state machine, driven by the RTIC tasks (or a
-//! host test through hal-sim): IMU samples at 100 Hz, encoder reads at
-//! 50 Hz, commands; out come the motor duty, telemetry frames and faults.
+//! host test through hal-sim): IMU samples at 1 kHz (the rate loop; every
+//! tenth, as the mean of ten, feeds calibration and 100 Hz navigation),
+//! encoder reads at 50 Hz, commands; out come the motor duty, telemetry
+//! frames and faults.
 //!
 //! Power-up: still for `static_s` (gyro biases), spin up to the scheme's
 //! rate (refused after `spinup_timeout_s`), rotate for `rotate_s` (whole
 //! turns), solve the earth-aware calibration (`core_nav::calib`), check it
-//! is plausible, store it (a CRC-protected record for flash), then navigate
-//! in f32 while the table keeps turning. A bump, a table that will not
+//! is plausible, store it (a CRC-protected record for flash; the record of
+//! the previous power-up, read back at boot, is reported with the change),
+//! then navigate in f32 while the table keeps turning. A bump, a table that will not
 //! reach its rate or an implausible result restarts the calibration with a
 //! reported reason.
 
@@ -78,9 +81,10 @@ impl Default for AppConfig {
             rotate_s: 60.0,
             spinup_timeout_s: 10.0,
             motor: MotorModel::default(),
-            // With a 100 Hz loop the cogging ripple (24 per turn) measured
-            // 0.68 / 0.45 / 0.35 deg/s RMS at 8 / 10 / 12 Hz (30 deg/s) and
-            // 0.68 at 70 deg/s: the loop runs at 1 kHz instead.
+            // The rate loop runs at 1 kHz with 25 Hz bandwidth. (An earlier
+            // 100 Hz loop left the cogging ripple, 24 per turn, at 0.68 /
+            // 0.45 / 0.35 deg/s RMS with 8 / 10 / 12 Hz bandwidth at 30
+            // deg/s and 0.68 at 70 deg/s: too much.)
             bandwidth_hz: 25.0,
             nav_every: 10,
             control_period_us: 1_000,

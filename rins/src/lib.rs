@@ -1,6 +1,10 @@
-//! The host side of rins: processing recordings (calibrate, navigate,
-//! Allan), the paper's experiment, and plots. The `rins` binary wires these
-//! to the command line.
+//! The host side of rins: [`calibrate`], [`nav`] (navigation of
+//! recordings, trajectory-v1), [`allan`], [`reproduce`] (the paper's
+//! experiment), [`demo`] (the main job), [`diagnose`] and its blind
+//! [`study`], [`record`] (board telemetry into recordings),
+//! [`qemu_replay`] (the QEMU test's input), [`report`] and [`plot`] (charts
+//! in SVG and PNG). The `rins` binary (`src/cmd/`, one file per command)
+//! wires these to the command line.
 
 pub mod allan;
 pub mod calibrate;

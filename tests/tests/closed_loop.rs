@@ -213,16 +213,20 @@ fn rate_loop_holds_10_to_100_dps() {
 
 /// A board through calibration and into navigation quickly (5 s still, 15 s
 /// rotating at 90 deg/s).
-fn navigating_board(seed: u64) -> Board {
-    let cfg = AppConfig {
+/// A short power-up: 5 s still, 15 s at 90 deg/s.
+fn quick_calibration() -> AppConfig {
+    AppConfig {
         scheme: Scheme::Continuous {
             rate: 90f64.to_radians(),
         },
         static_s: 5.0,
         rotate_s: 15.0,
         ..AppConfig::default()
-    };
-    let mut b = Board::new(ImuSpec::icm42688(), cfg, seed);
+    }
+}
+
+fn navigating_board(seed: u64) -> Board {
+    let mut b = Board::new(ImuSpec::icm42688(), quick_calibration(), seed);
     b.run(25.0);
     assert_eq!(
         b.app.mode,
@@ -471,15 +475,7 @@ fn the_stored_record_is_read_at_power_up_and_the_change_reported() {
     // Second power-up of the same sensor (a new bench seed: the turn-on
     // bias has changed, as between real power-ups), the record read back
     // from flash before the calibration starts.
-    let cfg = AppConfig {
-        scheme: Scheme::Continuous {
-            rate: 90f64.to_radians(),
-        },
-        static_s: 5.0,
-        rotate_s: 15.0,
-        ..AppConfig::default()
-    };
-    let mut b = Board::new(ImuSpec::icm42688(), cfg, 32);
+    let mut b = Board::new(ImuSpec::icm42688(), quick_calibration(), 32);
     assert!(b.app.restore(&record));
     assert_eq!(b.app.previous.map(|c| c.bias), Some(cal1.bias));
     b.run(25.0);

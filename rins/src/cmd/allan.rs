@@ -14,7 +14,7 @@ pub struct Args {
     /// Write the rins-allan/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write the plot (SVG) here.
+    /// Write the plot here (SVG, and PNG beside it with the same stem).
     #[arg(long)]
     pub plot: Option<PathBuf>,
 }

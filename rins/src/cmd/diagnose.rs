@@ -20,7 +20,7 @@ pub struct Args {
     /// Write the rins-diagnose/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write the plots (SVG) into this directory.
+    /// Write the plots (SVG and PNG) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
     /// Block length of the regression, s.

@@ -41,6 +41,33 @@ pub enum SchemeArg {
     Still,
 }
 
+/// Where the run is and how the base sits (`rins simulate`, `rins record`).
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct SiteArgs {
+    /// Site latitude, deg.
+    #[arg(long, default_value_t = 30.53)]
+    pub lat_deg: f64,
+    /// Site height, m.
+    #[arg(long, default_value_t = 20.0)]
+    pub height_m: f64,
+    /// Base heading, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub heading_deg: f64,
+    /// Base pitch, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub pitch_deg: f64,
+    /// Base roll, deg.
+    #[arg(long, default_value_t = 0.0)]
+    pub roll_deg: f64,
+}
+
+impl SiteArgs {
+    /// Roll, pitch, heading, deg.
+    pub fn base_deg(&self) -> [f64; 3] {
+        [self.roll_deg, self.pitch_deg, self.heading_deg]
+    }
+}
+
 /// Parses `NAME=VALUE`.
 pub fn parse_effect(s: &str) -> Result<(String, f64)> {
     let Some((name, value)) = s.split_once('=') else {

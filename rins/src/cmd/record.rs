@@ -2,7 +2,7 @@
 //! decoded into a recording, with the link's losses counted and the
 //! board's calibration frames kept (`calibration.json` in the recording).
 
-use super::write_file;
+use super::{write_file, SiteArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use rins::progress_bar;
 use std::io::Read;
@@ -30,21 +30,9 @@ pub struct Args {
     /// Output recording directory.
     #[arg(long)]
     pub out: PathBuf,
-    /// Site latitude, deg (the board does not send it).
-    #[arg(long, default_value_t = 30.53)]
-    pub lat_deg: f64,
-    /// Site height, m.
-    #[arg(long, default_value_t = 20.0)]
-    pub height_m: f64,
-    /// Base heading, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub heading_deg: f64,
-    /// Base pitch, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub pitch_deg: f64,
-    /// Base roll, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub roll_deg: f64,
+    /// Site and base (the board does not send them).
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// Also write the link statistics as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -54,11 +42,11 @@ pub struct Args {
 pub fn run(a: &Args) -> Result<()> {
     let meta = hal_sim::recording::Meta {
         description: Some("rins record: board telemetry".into()),
-        latitude_deg: a.lat_deg,
-        height_m: a.height_m,
-        heading_deg: a.heading_deg,
-        pitch_deg: a.pitch_deg,
-        roll_deg: a.roll_deg,
+        latitude_deg: a.site.lat_deg,
+        height_m: a.site.height_m,
+        heading_deg: a.site.heading_deg,
+        pitch_deg: a.site.pitch_deg,
+        roll_deg: a.site.roll_deg,
         imu_model: Some("TDK ICM-42688-P (board)".into()),
         ..hal_sim::recording::Meta::default()
     };

@@ -22,7 +22,7 @@ pub struct Args {
     /// Write the rins-reproduce/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write the plots (SVG) into this directory.
+    /// Write the plots (SVG and PNG) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
 }

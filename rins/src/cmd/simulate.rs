@@ -1,6 +1,6 @@
 //! `rins simulate`.
 
-use super::{parse_effect, AxisArg, SchemeArg};
+use super::{parse_effect, AxisArg, SchemeArg, SiteArgs};
 use rins::progress_bar;
 
 use anyhow::{anyhow, Context, Result};
@@ -36,24 +36,12 @@ pub struct Args {
     /// Still phase before the scheme starts (calibration's static part), s.
     #[arg(long, default_value_t = 0.0)]
     pub static_s: f64,
-    /// Site latitude, deg.
-    #[arg(long, default_value_t = 30.53)]
-    pub lat_deg: f64,
-    /// Site height, m.
-    #[arg(long, default_value_t = 20.0)]
-    pub height_m: f64,
+    /// Site and base.
+    #[command(flatten)]
+    pub site: SiteArgs,
     /// Gravity at the site, m/s^2 (default: WGS-84 normal gravity).
     #[arg(long)]
     pub gravity_mps2: Option<f64>,
-    /// Base heading, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub heading_deg: f64,
-    /// Base pitch, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub pitch_deg: f64,
-    /// Base roll, deg.
-    #[arg(long, default_value_t = 0.0)]
-    pub roll_deg: f64,
     /// Whole turns each way (reciprocating).
     #[arg(long, default_value_t = 1)]
     pub turns: u32,
@@ -110,21 +98,24 @@ impl Args {
                 dwell_s: self.dwell_s,
             },
         };
-        if !(-90.0..=90.0).contains(&self.lat_deg) {
-            return Err(anyhow!("--lat-deg {} is outside [-90, 90]", self.lat_deg));
+        if !(-90.0..=90.0).contains(&self.site.lat_deg) {
+            return Err(anyhow!(
+                "--lat-deg {} is outside [-90, 90]",
+                self.site.lat_deg
+            ));
         }
         let mut c = SimConfig::new(imu, axis, self.duration_s);
         c.ideal = self.ideal;
         c.scheme = scheme;
         c.static_s = self.static_s;
-        c.site = Site::new(self.lat_deg, self.height_m);
+        c.site = Site::new(self.site.lat_deg, self.site.height_m);
         if let Some(g) = self.gravity_mps2 {
             if !(9.0..=10.5).contains(&g) {
                 return Err(anyhow!("--gravity-mps2 {g} is not an earthly gravity"));
             }
             c.site.gravity_mps2 = g;
         }
-        c.base_deg = [self.roll_deg, self.pitch_deg, self.heading_deg];
+        c.base_deg = self.site.base_deg();
         c.seed = self.seed;
         for e in &self.effects {
             let (name, v) = parse_effect(e)?;
