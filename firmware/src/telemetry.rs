@@ -461,7 +461,7 @@ pub fn cobs_encode(data: &[u8], out: &mut [u8]) -> Result<usize, FrameError> {
     let mut code_at = 0usize;
     let mut n = 1usize;
     let mut code: u8 = 1;
-    for &b in data {
+    for (i, &b) in data.iter().enumerate() {
         if b == 0 {
             *out.get_mut(code_at).ok_or(FrameError::BufferTooSmall)? = code;
             code_at = n;
@@ -473,9 +473,14 @@ pub fn cobs_encode(data: &[u8], out: &mut [u8]) -> Result<usize, FrameError> {
             code += 1;
             if code == 0xFF {
                 *out.get_mut(code_at).ok_or(FrameError::BufferTooSmall)? = code;
+                code = 1;
+                if i + 1 == data.len() {
+                    // A full block ends the data: no empty block after it
+                    // (the encoding stays within n + ceil(n / 254) bytes).
+                    return Ok(n);
+                }
                 code_at = n;
                 n += 1;
-                code = 1;
             }
         }
     }

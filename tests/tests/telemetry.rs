@@ -211,6 +211,25 @@ proptest! {
     }
 
     #[test]
+    fn cobs_matches_the_cobs_crate_on_full_blocks(
+        runs in proptest::collection::vec(1usize..600, 1..4),
+        fill in 1u8..=255,
+    ) {
+        // Runs of non-zero bytes around the 254-byte block length, split by
+        // zeros: where encoders differ (a trailing empty block or not).
+        let mut data = vec![];
+        for (k, r) in runs.iter().enumerate() {
+            let len = if k % 2 == 0 { 254 * (r % 3 + 1) } else { *r };
+            data.extend(std::iter::repeat_n(fill, len));
+            data.push(0);
+        }
+        data.pop();
+        let mut ours = vec![0u8; cobs::max_encoding_length(data.len())];
+        let n = cobs_encode(&data, &mut ours).unwrap();
+        prop_assert_eq!(&ours[..n], &cobs::encode_vec(&data)[..]);
+    }
+
+    #[test]
     fn cobs_matches_the_cobs_crate(data in proptest::collection::vec(any::<u8>(), 0..600)) {
         // An independent implementation (jamesmunns/cobs.rs): byte for byte
         // the same encoding, and each decodes the other's.
