@@ -4,12 +4,16 @@
 
 use core_nav::table::Axis;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
-use hal_sim::imu::ImuSpec;
 use hal_sim::sim::simulate;
 use rins::diagnose::{run, Options};
 
 fn diagnose_1h(c: &mut Criterion) {
-    let mut cfg = rins::study::background(&ImuSpec::nav440(), Axis::Z, true, 7);
+    let mut cfg = rins::study::background(
+        &rins::study::grade("nav440", None).expect("grade"),
+        Axis::Z,
+        true,
+        7,
+    );
     cfg.duration_s = 3600.0;
     let _ = cfg.set_effect("lever_arm", 0.02);
     let Ok(rec) = simulate(&cfg, &mut |_| {}) else {

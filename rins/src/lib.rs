@@ -13,6 +13,7 @@ pub mod diagnose;
 pub mod nav;
 pub mod plot;
 pub mod qemu_replay;
+pub mod realnoise;
 pub mod record;
 pub mod report;
 pub mod reproduce;

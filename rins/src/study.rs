@@ -23,16 +23,19 @@
 
 use crate::diagnose::DiagnoseError;
 use crate::diagnose::{fisher, lambda_50, run as diagnose_run, Options};
+use crate::realnoise::RealNoise;
 use core_nav::earth::EARTH_RATE_RADPS;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
+use hal_sim::recording::Recording;
 use hal_sim::sim::SimError;
 use hal_sim::sim::{simulate, SimConfig};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::sync::Mutex;
 
 /// The table axis an effect's run turns about and a reference magnitude
@@ -83,6 +86,10 @@ pub enum StudyError {
     Diagnose(DiagnoseError),
     /// The thread pool failed.
     Worker(String),
+    /// A `+real` grade without a real recording.
+    NoRealNoise,
+    /// The real recording cannot serve the run.
+    RealNoise(String),
 }
 
 impl std::fmt::Display for StudyError {
@@ -94,6 +101,10 @@ impl std::fmt::Display for StudyError {
             StudyError::Sim(e) => write!(f, "simulation: {e}"),
             StudyError::Diagnose(e) => write!(f, "diagnose: {e}"),
             StudyError::Worker(e) => f.write_str(e),
+            StudyError::NoRealNoise => {
+                f.write_str("a +real grade needs a real static recording (--real-noise PATH)")
+            }
+            StudyError::RealNoise(e) => write!(f, "real noise: {e}"),
         }
     }
 }
@@ -112,29 +123,67 @@ impl From<DiagnoseError> for StudyError {
     }
 }
 
-/// A grade by name (the `rins simulate --imu` profiles).
-///
-/// # Errors
-/// An unknown name.
-pub fn grade(name: &str) -> Result<ImuSpec, StudyError> {
-    ImuSpec::by_name(name).ok_or_else(|| StudyError::UnknownGrade(name.to_string()))
+/// A grade of the study: a sensor profile's deterministic errors (bias,
+/// scale, misalignment) and its noise, simulated from the profile or taken
+/// from a real static recording ([`RealNoise`]).
+#[derive(Clone, Debug)]
+pub struct Grade {
+    /// Name in the tables (`nav440`, `adis16405+real`, ...).
+    pub name: String,
+    /// The profile.
+    pub spec: ImuSpec,
+    /// Real noise, when the background is real.
+    pub real: Option<Arc<RealNoise>>,
 }
 
-/// One run's background for grade `g` about `axis`.
-pub fn background(g: &ImuSpec, axis: Axis, wander: bool, seed: u64) -> SimConfig {
+/// A grade by name (the `rins simulate --imu` profiles); `<profile>+real`
+/// takes its noise from `real`.
+///
+/// # Errors
+/// An unknown name, or `+real` without a real recording.
+pub fn grade(name: &str, real: Option<&Arc<RealNoise>>) -> Result<Grade, StudyError> {
+    let (profile, is_real) = match name.strip_suffix("+real") {
+        Some(p) => (p, true),
+        None => (name, false),
+    };
+    let spec =
+        ImuSpec::by_name(profile).ok_or_else(|| StudyError::UnknownGrade(name.to_string()))?;
+    let real = if is_real {
+        Some(real.cloned().ok_or(StudyError::NoRealNoise)?)
+    } else {
+        None
+    };
+    Ok(Grade {
+        name: name.to_string(),
+        spec,
+        real,
+    })
+}
+
+/// One run's background for grade `g` about `axis` (`wander`: with the
+/// profile's bias instability, simulated grades only).
+pub fn background(g: &Grade, axis: Axis, wander: bool, seed: u64) -> SimConfig {
     let mut s = ImuSpec::ideal();
-    for (t, f) in [(&mut s.gyro, &g.gyro), (&mut s.accel, &g.accel)] {
+    let real = g.real.is_some();
+    for (t, f) in [(&mut s.gyro, &g.spec.gyro), (&mut s.accel, &g.spec.accel)] {
         t.bias = f.bias;
         t.scale = f.scale;
         t.misalignment = f.misalignment;
-        t.white = f.white;
-        t.lsb = f.lsb;
+        // A real background brings its own noise and quantisation.
+        if !real {
+            t.white = f.white;
+            t.lsb = f.lsb;
+        }
     }
-    if wander {
-        s.gyro.bias_instability = g.gyro.bias_instability;
-        s.gyro.bi_tau_s = g.gyro.bi_tau_s;
+    if wander && !real {
+        s.gyro.bias_instability = g.spec.gyro.bias_instability;
+        s.gyro.bi_tau_s = g.spec.gyro.bi_tau_s;
     }
-    s.temp = g.temp;
+    s.temp = g.spec.temp;
+    if real {
+        // Its thermal drift is in the real samples, its temperature unknown.
+        s.temp.warmup_c = 0.0;
+    }
     let mut c = SimConfig::new(s, axis, 600.0);
     c.scheme = Scheme::Reciprocating {
         rate: 60f64.to_radians(),
@@ -143,6 +192,21 @@ pub fn background(g: &ImuSpec, axis: Axis, wander: bool, seed: u64) -> SimConfig
     c.static_s = 30.0;
     c.seed = seed;
     c
+}
+
+/// Simulates `c` for grade `g`: with a real background, the draw of `seed`
+/// from the real recording is added (and the temperature column dropped).
+///
+/// # Errors
+/// A simulation failure; a real recording too short for the run.
+pub fn record(g: &Grade, c: &SimConfig, seed: u64) -> Result<Recording, StudyError> {
+    let mut rec = simulate(c, &mut |_| {})?;
+    if let Some(r) = &g.real {
+        let d = r.draw(seed, rec.imu.len());
+        r.add_to(&mut rec, d)
+            .map_err(|e| StudyError::RealNoise(e.to_string()))?;
+    }
+    Ok(rec)
 }
 
 /// Puts `effect` at `mag` into `c` (earth_rate: `mag` rad/s more than the
@@ -154,6 +218,14 @@ fn inject(c: &mut SimConfig, g: &ImuSpec, effect: EffectId, mag: f64) -> Result<
             c.imu.gyro.bias_instability = g.gyro.bias_instability * mag;
             c.imu.gyro.bi_tau_s = g.gyro.bi_tau_s;
             Ok(())
+        }
+        EffectId::TemperatureBias => {
+            // A real background has no warm-up of its own (its temperature
+            // is unknown): the effect brings the profile's, and on a real
+            // background its temperature column is dropped, so diagnose
+            // sees a warm-up on real drift (the hard case).
+            c.imu.temp.warmup_c = g.temp.warmup_c;
+            Ok(c.set_effect(effect.as_str(), mag)?)
         }
         _ => Ok(c.set_effect(effect.as_str(), mag)?),
     }
@@ -217,9 +289,8 @@ pub struct Study {
 
 /// Effects named in a run, most significant first (bias instability
 /// dropped unless `keep_bi`), and the look-alikes the findings name.
-fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), StudyError> {
-    let rec = simulate(c, &mut |_| {})?;
-    let d = diagnose_run(&rec, "study", &Options::default())?;
+fn named(rec: &Recording, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), StudyError> {
+    let d = diagnose_run(rec, "study", &Options::default())?;
     let found = d
         .findings
         .iter()
@@ -230,7 +301,9 @@ fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), Stu
     let alike = d
         .findings
         .iter()
-        .filter_map(|f| f.lookalike.map(|e| e.as_str().to_string()))
+        .filter_map(|f| f.lookalike)
+        .chain(d.unexplained.iter().filter_map(|u| u.may_be))
+        .map(|e| e.as_str().to_string())
         .collect();
     Ok((found, alike))
 }
@@ -239,13 +312,7 @@ fn named(c: &SimConfig, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), Stu
 ///
 /// # Errors
 /// A simulation or diagnosis failure.
-pub fn mde(
-    g: &ImuSpec,
-    gname: &str,
-    effect: EffectId,
-    axis: Axis,
-    reference: f64,
-) -> Result<Mde, StudyError> {
+pub fn mde(g: &Grade, effect: EffectId, axis: Axis, reference: f64) -> Result<Mde, StudyError> {
     // The noise model from the run as recorded; the signature from twins
     // without quantisation (encoder and output), whose rounding changes with
     // any change of the signal and would pass for part of it.
@@ -255,9 +322,15 @@ pub fn mde(
     s0.imu.gyro.lsb = 0.0;
     s0.imu.accel.lsb = 0.0;
     let mut s1 = s0.clone();
-    inject(&mut s1, g, effect, reference)?;
-    let r0 = simulate(&c0, &mut |_| {})?;
-    let (q0, q1) = (simulate(&s0, &mut |_| {})?, simulate(&s1, &mut |_| {})?);
+    inject(&mut s1, &g.spec, effect, reference)?;
+    let r0 = record(g, &c0, 99)?;
+    let (mut q0, mut q1) = (simulate(&s0, &mut |_| {})?, simulate(&s1, &mut |_| {})?);
+    if g.real.is_some() {
+        // As the real runs: no temperature column (the same candidates).
+        for row in q0.imu.iter_mut().chain(q1.imu.iter_mut()) {
+            row.temp_c = None;
+        }
+    }
     let (lam, k, n) = fisher(&r0, &q0, &q1, effect, &Options::default())?;
     let l50 = lambda_50(k, n);
     let mde = if lam > 0.0 && k > 0 {
@@ -266,7 +339,7 @@ pub fn mde(
         f64::INFINITY
     };
     Ok(Mde {
-        grade: gname.into(),
+        grade: g.name.clone(),
         effect: effect.as_str().into(),
         k,
         lambda_ref: lam,
@@ -287,7 +360,7 @@ enum Job {
 /// # Errors
 /// A simulation failure or an unknown grade.
 pub fn run(
-    grades: &[&str],
+    grades: &[Grade],
     effects: &[(EffectId, Axis, f64)],
     runs: usize,
     nulls: usize,
@@ -295,27 +368,31 @@ pub fn run(
     threads: usize,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<Study, StudyError> {
-    let specs: Vec<ImuSpec> = grades.iter().map(|g| grade(g)).collect::<Result<_, _>>()?;
     // MDEs first (two noise-free-difference runs each).
     let mut mdes = vec![];
-    for (gi, g) in specs.iter().enumerate() {
+    for g in grades {
         for (e, axis, reference) in effects {
             if *e == EffectId::BiasInstability {
                 continue;
             }
-            mdes.push(mde(g, grades[gi], *e, *axis, *reference)?);
+            mdes.push(mde(g, *e, *axis, *reference)?);
         }
     }
     let mut cells = vec![];
     let mut meta = vec![]; // (grade index, effect, axis, scale)
-    for (gi, g) in specs.iter().enumerate() {
+    for (gi, g) in grades.iter().enumerate() {
         for (e, axis, _) in effects {
+            // A real background has its own wandering bias: hiding more on
+            // top of it tells nothing about the tool.
+            if *e == EffectId::BiasInstability && g.real.is_some() {
+                continue;
+            }
             let (scales, base): (&[f64], f64) = if *e == EffectId::BiasInstability {
                 (&BI_SCALES, 1.0)
             } else {
                 let m = mdes
                     .iter()
-                    .find(|m| m.grade == grades[gi] && m.effect == e.as_str())
+                    .find(|m| m.grade == g.name && m.effect == e.as_str())
                     .map_or(f64::INFINITY, |m| m.mde);
                 (&SCALES, m)
             };
@@ -324,12 +401,12 @@ pub fn run(
             }
             for s in scales {
                 let magnitude = if *e == EffectId::BiasInstability {
-                    g.gyro.bias_instability * s
+                    g.spec.gyro.bias_instability * s
                 } else {
                     base * s
                 };
                 cells.push(Cell {
-                    grade: grades[gi].into(),
+                    grade: g.name.clone(),
                     effect: e.as_str().into(),
                     scale: *s,
                     magnitude,
@@ -360,7 +437,7 @@ pub fn run(
             });
         }
     }
-    for gi in 0..specs.len() {
+    for gi in 0..grades.len() {
         for k in 0..nulls {
             jobs.push(Job::Null {
                 grade: gi,
@@ -383,12 +460,17 @@ pub fn run(
                     Job::Cell { cell, seed } => {
                         let (gi, e, axis, mag) = meta[*cell];
                         let bi = e == EffectId::BiasInstability;
-                        let mut c = background(&specs[gi], axis, !bi, *seed);
-                        inject(&mut c, &specs[gi], e, mag).and_then(|()| named(&c, bi))
+                        let g = &grades[gi];
+                        let mut c = background(g, axis, !bi, *seed);
+                        inject(&mut c, &g.spec, e, mag)
+                            .and_then(|()| record(g, &c, *seed))
+                            .and_then(|r| named(&r, bi))
                     }
                     Job::Null { grade, seed } => {
                         let axis = if seed % 2 == 0 { Axis::Z } else { Axis::Y };
-                        named(&background(&specs[*grade], axis, true, *seed), false)
+                        let g = &grades[*grade];
+                        record(g, &background(g, axis, true, *seed), *seed)
+                            .and_then(|r| named(&r, false))
                     }
                 };
                 match out {
@@ -436,7 +518,7 @@ pub fn run(
                 }
             }
             Job::Null { grade, .. } => {
-                let g = grades[*grade].to_string();
+                let g = grades[*grade].name.clone();
                 *null_runs.entry(g.clone()).or_insert(0) += 1;
                 let fa = !found.is_empty();
                 *false_alarms.entry(g).or_insert(0) += usize::from(fa);

@@ -462,7 +462,7 @@ fn blind_study_runs_and_its_mde_is_calibrated() {
     // half of it goes unseen (noncentrality a quarter of the 50 % point: a
     // detection chance well under 1 %) and four times it is always seen.
     let s = rins::study::run(
-        &["nav440"],
+        &[rins::study::grade("nav440", None).unwrap()],
         &[(hal_sim::catalogue::EffectId::LeverArm, Axis::Z, 0.02)],
         1,
         2,

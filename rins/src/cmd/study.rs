@@ -3,7 +3,9 @@
 use super::write_file;
 use anyhow::Result;
 use rins::progress_bar;
+use rins::realnoise::RealNoise;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// `rins study`.
 #[derive(clap::Args)]
@@ -14,9 +16,21 @@ pub struct Args {
     /// Null runs per grade.
     #[arg(long, default_value_t = 100)]
     pub nulls: usize,
-    /// Sensor grades (nav440, mtig, adis16405, icm42688).
-    #[arg(long, value_delimiter = ',', default_value = "nav440,mtig")]
-    pub grades: Vec<String>,
+    /// Sensor grades (nav440, mtig, adis16405, icm42688; `<grade>+real`:
+    /// the grade's deterministic errors on the real noise of --real-noise).
+    /// Default: nav440,mtig; with --real-noise, adis16405,adis16405+real.
+    #[arg(long, value_delimiter = ',')]
+    pub grades: Option<Vec<String>>,
+    /// Study on real noise: the backgrounds of `adis16405+real` (next to
+    /// the simulated `adis16405`) come from a real static recording (the
+    /// ADIS16405 bench hours, --real-noise-file).
+    #[arg(long)]
+    pub real_noise: bool,
+    /// The real static recording (`adis_16405_imu1_f32le_1000000x6.bin`);
+    /// default `$RINS_DATA/adis16405_static/` (`RINS_DATA` default
+    /// `../shared/data`).
+    #[arg(long)]
+    pub real_noise_file: Option<PathBuf>,
     /// First seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -37,7 +51,25 @@ pub fn run(a: &Args) -> Result<()> {
     let threads = a
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let grades: Vec<&str> = a.grades.iter().map(String::as_str).collect();
+    let real = if a.real_noise || a.real_noise_file.is_some() {
+        let path = a.real_noise_file.clone().unwrap_or_else(|| {
+            std::env::var_os("RINS_DATA")
+                .map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from)
+                .join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")
+        });
+        Some(Arc::new(RealNoise::adis16405(&path)?))
+    } else {
+        None
+    };
+    let names: Vec<String> = match (&a.grades, &real) {
+        (Some(g), _) => g.clone(),
+        (None, Some(_)) => vec!["adis16405".into(), "adis16405+real".into()],
+        (None, None) => vec!["nav440".into(), "mtig".into()],
+    };
+    let grades = names
+        .iter()
+        .map(|n| rins::study::grade(n, real.as_ref()))
+        .collect::<Result<Vec<_>, _>>()?;
     let s = rins::study::run(
         &grades,
         &rins::study::effects(),

@@ -81,6 +81,25 @@ fn normals(k: &Vector3<f64>) -> [(Vector3<f64>, &'static str); 2] {
 }
 
 impl Candidate {
+    /// A slow effect (temperature, warm-up): its signal lives at periods of
+    /// minutes, where a noise model fitted to short blocks is least sure.
+    pub fn is_slow(&self) -> bool {
+        matches!(
+            self.kind,
+            Kind::TempGyro | Kind::TempAccel | Kind::Warmup(_)
+        )
+    }
+
+    /// Parameters chosen by searching a grid rather than fitted linearly
+    /// (a warm-up's time constant): free parameters all the same, each
+    /// counted in the BIC penalty like a fitted one.
+    pub fn searched_params(&self) -> usize {
+        match self.kind {
+            Kind::Warmup(_) => 1,
+            _ => 0,
+        }
+    }
+
     /// Parameter names, SI units in the names.
     pub fn params(&self, p: &Prediction) -> Vec<String> {
         let per_axis = |f: &dyn Fn(&str) -> String| AX.iter().map(|a| f(a)).collect();
@@ -153,6 +172,17 @@ impl Candidate {
                     // the earth rate says nothing about its nonlinearity).
                     if self.kind != Kind::AccelK2
                         && !p.w.iter().any(|w| w[i].abs() > MIN_RATE_RADPS)
+                    {
+                        continue;
+                    }
+                    // An asymmetry is the scale difference between positive
+                    // and negative rates: a run that turns one way only has
+                    // no negative rate to compare (what is left of |w| is
+                    // the scale, and the earth rate's sign in the still
+                    // phase, which a bias step mimics).
+                    if self.kind == Kind::GyroAsym
+                        && !(p.w.iter().any(|w| w[i] > MIN_RATE_RADPS)
+                            && p.w.iter().any(|w| w[i] < -MIN_RATE_RADPS))
                     {
                         continue;
                     }

@@ -122,6 +122,11 @@ pub struct Unexplained {
     pub where_: String,
     /// Amplitude over its standard error.
     pub snr: f64,
+    /// The effect it may be, when the run cannot tell it from the noise
+    /// (a slow finding the long blocks did not confirm; not in the spec's
+    /// JSON).
+    #[serde(skip)]
+    pub may_be: Option<EffectId>,
 }
 
 /// What a person reads beyond the JSON, and what the plots draw.

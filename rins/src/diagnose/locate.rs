@@ -352,6 +352,7 @@ pub fn unexplained(
                 channels: vec![CHANNELS[ch].to_string()],
                 where_: groups[gi].0.clone(),
                 snr: dchi.sqrt(),
+                may_be: None,
             });
         }
     }

@@ -70,7 +70,7 @@ use model::apply_known;
 use noise::Noise;
 use predict::{check, dt_of};
 use report::report;
-use select::{report_stats, select, Selection};
+use select::{confirm_slow, report_stats, select, Selection};
 
 /// The six channels' names (recording-v1 columns).
 pub const CHANNELS: [&str; 6] = crate::allan::CHANNELS;
@@ -78,6 +78,12 @@ pub const CHANNELS: [&str; 6] = crate::allan::CHANNELS;
 /// BIC margin for a finding: lower by 10 is "very strong" evidence (Kass &
 /// Raftery 1995).
 pub const BIC_MARGIN: f64 = 10.0;
+
+/// Block length on which slow findings (temperature, warm-up) are
+/// confirmed, s: ten seconds average a sensor's short-time colouring (its
+/// own filter: the ADIS16405's reaches ~8 s) and leave 60 blocks in a
+/// 10-minute run.
+pub const COARSE_BLOCK_S: f64 = 10.0;
 
 /// Prior 1-sigma of the nominal scale-factor and misalignment terms
 /// (dimensionless): the nominal fit is physically bounded. MEMS datasheets
@@ -134,6 +140,20 @@ pub fn run(
     let noise2 = final_noise(&d1, &s1);
     let mut d = Design::build(&p, lib(&p), opts, Some(&noise2));
     let mut sel = select(&d);
+    let mut unconfirmed = vec![];
+    // A slow finding is confirmed on long blocks (select::confirm_slow):
+    // COARSE_BLOCK_S, or shorter so that the run still makes 50 blocks.
+    if sel.set.iter().any(|c| d.cands[*c].is_slow()) {
+        let span = p.t_s.last().copied().unwrap_or(0.0) - p.t_s.first().copied().unwrap_or(0.0);
+        let coarse = Options {
+            block_s: (span / 50.0).min(COARSE_BLOCK_S).max(opts.block_s),
+            ..opts.clone()
+        };
+        if coarse.block_s > opts.block_s {
+            let dc = Design::build(&p, lib(&p), &coarse, None);
+            (sel, unconfirmed) = confirm_slow(&d, &dc, sel);
+        }
+    }
     // Significance, look-alikes and held-out checks come from the design the
     // selection was made on; the refinement below only sharpens values.
     let judged = report_stats(&d, &sel);
@@ -164,14 +184,31 @@ pub fn run(
             break;
         }
     }
-    Ok(report(
+    let mut dg = report(
         recording_name,
         &p,
         &d,
         &sel,
         &judged,
         time_offset - dt_known,
-    ))
+    );
+    for u in &unconfirmed {
+        dg.unexplained.push(Unexplained {
+            channels: u.channels.iter().filter_map(|c| CHANNELS.get(*c)).map(|c| (*c).to_string()).collect(),
+            where_: format!(
+                "slow, over minutes ({}): delta BIC {:.0} on {:.1} s blocks, not confirmed on {:.0} s blocks ({:+.0}); this run cannot tell it from the sensor's own drift; to separate them, {}",
+                d.cands[u.cand].explain(),
+                u.dbic_fine,
+                opts.block_s,
+                COARSE_BLOCK_S,
+                u.dbic_coarse,
+                d.cands[u.cand].excite()
+            ),
+            snr: u.snr,
+            may_be: Some(d.cands[u.cand].id),
+        });
+    }
+    Ok(dg)
 }
 
 /// Noise models re-fitted to the residual of a selection.

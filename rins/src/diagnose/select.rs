@@ -3,7 +3,7 @@
 //! figures, look-alikes).
 
 use super::design::{Design, Fit, Key, Owner};
-use super::{effects, FitFigures, BIC_MARGIN};
+use super::{effects, noise, FitFigures, BIC_MARGIN};
 use hal_sim::catalogue::EffectId;
 
 /// Selected model: candidates (library indices), each finding's drop-one
@@ -27,7 +27,7 @@ pub(super) fn select(d: &Design) -> Selection {
             let mut with = set.clone();
             with.push(ci);
             let f = d.fit(&with);
-            let k = params_of(&f, ci);
+            let k = dof(d, &f, ci);
             if k == 0 {
                 continue;
             }
@@ -53,7 +53,7 @@ pub(super) fn select(d: &Design) -> Selection {
         for (pos, &ci) in set.iter().enumerate() {
             let rest: Vec<usize> = set.iter().copied().filter(|x| *x != ci).collect();
             let f0 = d.fit(&rest);
-            let k = params_of(&cur, ci);
+            let k = dof(d, &cur, ci);
             let dbic = (cur.rss_w - f0.rss_w) + k as f64 * ln_n;
             if dbic >= -BIC_MARGIN {
                 drop = Some((pos, f0));
@@ -69,6 +69,105 @@ pub(super) fn select(d: &Design) -> Selection {
         }
     }
     Selection { set, fit: cur }
+}
+
+/// Slow findings judged again where their signal lives, on the `coarse`
+/// design (the same candidates on long blocks), by a profile likelihood
+/// ratio: the noise model (white + Gauss-Markov) is fitted anew to the
+/// residual with the finding and to the residual without it, and the two
+/// maximised likelihoods compared (BIC, the finding's parameters counted).
+/// A sensor's noise is seldom one Gauss-Markov process: fitted to short
+/// blocks the model follows the short-time colouring (the sensor's own
+/// filter, quantisation) and can understate the power at periods of
+/// minutes, where a warm-up or a temperature term lives; there a slow
+/// regressor wins against a noise model that was never asked to explain
+/// the drift. On long blocks, with the noise free to take the drift, a
+/// slow finding must still explain it better than drift does. Those that do
+/// not are returned (with their short-block statistics) to be reported as
+/// what they are: a slow mismatch this run cannot tell from the sensor's
+/// own drift.
+pub(super) fn confirm_slow(
+    d: &Design,
+    coarse: &Design,
+    sel: Selection,
+) -> (Selection, Vec<Unconfirmed>) {
+    let ln_fine = (d.rows().max(2) as f64).ln();
+    let block_s = coarse.ch.first().map_or(1.0, |c| c.noise.block_s);
+    let ln_n = (coarse.rows().max(2) as f64).ln();
+    let loglik = |fit: &Fit, chans: &[usize]| -> f64 {
+        chans
+            .iter()
+            .map(|&ch| {
+                let z = coarse.block_residual(fit, ch);
+                noise::fit(&z, block_s, coarse.quant[ch]).loglik
+            })
+            .sum()
+    };
+    let mut set = sel.set.clone();
+    let mut dropped = vec![];
+    for &ci in &sel.set {
+        if !d.cands.get(ci).is_some_and(|c| c.is_slow()) {
+            continue;
+        }
+        let rest: Vec<usize> = set.iter().copied().filter(|x| *x != ci).collect();
+        let (f1, f0) = (coarse.fit(&set), coarse.fit(&rest));
+        let k = dof(coarse, &f1, ci);
+        let chans: Vec<usize> = (0..6)
+            .filter(|ch| (f0.rss_p[*ch] - f1.rss_p[*ch]).abs() > 1e-12 * f0.rss_p[*ch])
+            .collect();
+        let dbic = -2.0 * (loglik(&f1, &chans) - loglik(&f0, &chans)) + k as f64 * ln_n;
+        if k == 0 || dbic >= -BIC_MARGIN {
+            // Its short-block evidence, for the report.
+            let fine0 = d.fit(&rest);
+            let dchi = (fine0.rss_w - sel.fit.rss_w).max(0.0);
+            let channels = (0..6)
+                .filter(|ch| {
+                    (fine0.rss_p[*ch] - sel.fit.rss_p[*ch]).abs() > 1e-9 * fine0.rss_p[*ch]
+                })
+                .collect();
+            dropped.push(Unconfirmed {
+                cand: ci,
+                channels,
+                snr: dchi.sqrt(),
+                dbic_fine: -dchi + dof(d, &sel.fit, ci) as f64 * ln_fine,
+                dbic_coarse: dbic,
+            });
+            set = rest;
+        }
+    }
+    if set == sel.set {
+        return (sel, dropped);
+    }
+    (
+        Selection {
+            fit: d.fit(&set),
+            set,
+        },
+        dropped,
+    )
+}
+
+/// A slow finding the long blocks did not confirm.
+pub(super) struct Unconfirmed {
+    /// The candidate.
+    pub(super) cand: usize,
+    /// Channels it changed.
+    pub(super) channels: Vec<usize>,
+    /// Its amplitude over its standard error on the short blocks.
+    pub(super) snr: f64,
+    /// Its delta BIC on the short blocks and on the long ones.
+    pub(super) dbic_fine: f64,
+    /// See `dbic_fine`.
+    pub(super) dbic_coarse: f64,
+}
+
+/// The candidate's degrees of freedom in `f` for the BIC: its fitted
+/// parameters and, when any is fitted, those it searched on a grid.
+pub(super) fn dof(d: &Design, f: &Fit, ci: usize) -> usize {
+    match params_of(f, ci) {
+        0 => 0,
+        k => k + d.cands.get(ci).map_or(0, |c| c.searched_params()),
+    }
 }
 
 pub(super) fn params_of(f: &Fit, ci: usize) -> usize {
@@ -98,7 +197,7 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
         let rest: Vec<usize> = sel.set.iter().copied().filter(|x| *x != ci).collect();
         let f0 = d.fit(&rest);
         let f1 = &sel.fit;
-        let k = params_of(f1, ci);
+        let k = dof(d, f1, ci);
         let dchi = (f0.rss_w - f1.rss_w).max(0.0);
         let dbic = -dchi + k as f64 * ln_n;
         let chans: Vec<usize> = (0..6)
@@ -140,7 +239,7 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             let mut alt = rest.clone();
             alt.push(di);
             let fa = d.fit(&alt);
-            let ka = params_of(&fa, di);
+            let ka = dof(d, &fa, di);
             if ka == 0 {
                 continue;
             }
