@@ -1,7 +1,7 @@
 //! The host side of rins: [`calibrate`], [`nav`] (navigation of
 //! recordings, trajectory-v1), [`allan`], [`reproduce`] (the paper's
 //! experiment), [`demo`] (the main job), [`diagnose`] and its blind
-//! [`study`], [`record`] (board telemetry into recordings),
+//! [`study`] (with [`realnoise`] backgrounds), [`record`] (board telemetry into recordings),
 //! [`qemu_replay`] (the QEMU test's input), [`report`] and [`plot`] (charts
 //! in SVG and PNG). The `rins` binary (`src/cmd/`, one file per command)
 //! wires these to the command line.
