@@ -57,6 +57,10 @@ pub struct SimConfig {
     /// Deterministic gyro g-sensitivity: VALUE x a fixed sign pattern on all
     /// nine entries, rad/s per m/s^2 (replaces the profile's random draw).
     pub g_sens_override: Option<f64>,
+    /// A deterministic gyro g-sensitivity matrix, rad/s per m/s^2 (row: the
+    /// gyro axis, column: the specific force axis; replaces both the above
+    /// and the profile's random draw).
+    pub g_sens_matrix: Option<nalgebra::Matrix3<f64>>,
     /// Deterministic gyro bias temperature coefficient, rad/s per degC, all
     /// axes (replaces the profile's random draw).
     pub temp_bias_override: Option<f64>,
@@ -82,6 +86,7 @@ impl SimConfig {
             encoder_rate_hz: 50.0,
             seed: 1,
             g_sens_override: None,
+            g_sens_matrix: None,
             temp_bias_override: None,
         }
     }
@@ -479,6 +484,9 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let mut imu = ImuModel::new(cfg.imu.clone(), cfg.seed);
     if let Some(v) = cfg.g_sens_override {
         imu.g_sens = nalgebra::Matrix3::from_fn(|r, c| v * G_SENS_PATTERN[r][c]);
+    }
+    if let Some(m) = cfg.g_sens_matrix {
+        imu.g_sens = m;
     }
     if let Some(v) = cfg.temp_bias_override {
         imu.gyro.temp_bias = Vector3::repeat(v);

@@ -40,6 +40,7 @@ pub const EXTERNAL: [Dataset; 3] = [
             "diagnose_real_noise::real_noise_nulls_name_nothing",
             "diagnose_real_noise::a_long_step_profile_on_real_drift_is_not_a_warm_up",
             "diagnose_real_noise::a_warm_up_on_real_drift_is_still_found",
+            "diagnose_real_noise::cross_axis_g_sensitivity_on_a_horizontal_axis_is_g_sensitivity",
         ],
     },
     Dataset {
