@@ -83,6 +83,16 @@ mod app {
         }
     }
 
+    /// Stops for good at initialisation, in the safe state: the PWM duty is
+    /// already 0 (motor off) and the watchdog not yet started, so the board
+    /// stays halted with the reason in the log instead of panicking.
+    fn halt(why: &str) -> ! {
+        defmt::error!("halted at init: {=str}", why);
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
     #[shared]
     struct Shared {
         app: App,
@@ -158,11 +168,13 @@ mod app {
             .serial((gpioa.pa9, gpioa.pa10), board::BAUD.bps(), &mut rcc);
         let (tx, rx) = match serial {
             Ok(s) => s.split(),
-            Err(_) => defmt::panic!("USART1 configuration"), // init only: a board that cannot talk is broken
+            // A board that cannot talk is broken: safe state, no panic path.
+            Err(_) => halt("USART1 configuration failed"),
         };
         let mut app = match App::new(AppConfig::default()) {
             Ok(a) => a,
-            Err(_) => defmt::panic!("default configuration out of range"), // init only: a build error
+            // A build error (the host tests build this configuration).
+            Err(_) => halt("default configuration out of range"),
         };
         if let Some(wrong_device) = imu_failed {
             app.on_imu_init_failed(0, wrong_device);

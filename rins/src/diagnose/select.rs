@@ -24,14 +24,9 @@ pub(super) fn select(d: &Design) -> Selection {
             if set.iter().any(|s| d.cands[*s].id == id) {
                 continue;
             }
-            let mut with = set.clone();
-            with.push(ci);
-            let f = d.fit(&with);
-            let k = dof(d, &f, ci);
-            if k == 0 {
+            let Some((dbic, f)) = adding(d, &set, &cur, ci, ln_n) else {
                 continue;
-            }
-            let dbic = (f.rss_w - cur.rss_w) + k as f64 * ln_n;
+            };
             if dbic < -BIC_MARGIN
                 && f.ho_w < cur.ho_w
                 && best.as_ref().is_none_or(|(b, _, _)| dbic < *b)
@@ -69,6 +64,22 @@ pub(super) fn select(d: &Design) -> Selection {
         }
     }
     Selection { set, fit: cur }
+}
+
+/// The model `base` (fitted as `base_fit`) with candidate `ci` added: its
+/// BIC change (the whitened residual's drop, at most the whole of it, and
+/// the candidate's degrees of freedom) and fit; `None` when the run does
+/// not excite it.
+fn adding(d: &Design, base: &[usize], base_fit: &Fit, ci: usize, ln_n: f64) -> Option<(f64, Fit)> {
+    let mut with = base.to_vec();
+    with.push(ci);
+    let f = d.fit(&with);
+    let k = dof(d, &f, ci);
+    if k == 0 {
+        return None;
+    }
+    let dbic = -(base_fit.rss_w - f.rss_w).max(0.0) + k as f64 * ln_n;
+    Some((dbic, f))
 }
 
 /// Slow findings judged again where their signal lives, on the `coarse`
@@ -236,14 +247,9 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             if dc.id == c.id || sel.set.iter().any(|s| d.cands[*s].id == dc.id) {
                 continue;
             }
-            let mut alt = rest.clone();
-            alt.push(di);
-            let fa = d.fit(&alt);
-            let ka = dof(d, &fa, di);
-            if ka == 0 {
+            let Some((dbic_alt, _)) = adding(d, &rest, &f0, di, ln_n) else {
                 continue;
-            }
-            let dbic_alt = -(f0.rss_w - fa.rss_w).max(0.0) + ka as f64 * ln_n;
+            };
             if dbic_alt < -BIC_MARGIN && dbic_alt - dbic < BIC_MARGIN {
                 explanation += &format!(
                     ". In this run it cannot be told apart from {} (delta BIC {:.0} against {:.0}): to separate them, {}",
