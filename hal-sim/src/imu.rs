@@ -402,6 +402,15 @@ pub struct TriadModel {
     pub gm_bank: [Vector3<f64>; FLICKER_BANK],
     /// Random-walk bias state, unit.
     pub rw: Vector3<f64>,
+    /// White noise density per axis, unit x sqrt(s) (the spec's `white` on
+    /// every axis unless set per axis, e.g. by a fitted twin).
+    pub white: Vector3<f64>,
+    /// Gauss-Markov bias sigma per axis, unit.
+    pub bias_instability: Vector3<f64>,
+    /// Gauss-Markov correlation time per axis, s (0: no process).
+    pub bi_tau_s: Vector3<f64>,
+    /// Rate random walk per axis, unit/sqrt(s).
+    pub rrw: Vector3<f64>,
 }
 
 impl TriadModel {
@@ -438,28 +447,52 @@ impl TriadModel {
             spec: *spec,
             gm,
             rw: Vector3::zeros(),
+            white: Vector3::repeat(spec.white),
+            bias_instability: Vector3::repeat(spec.bias_instability),
+            bi_tau_s: Vector3::repeat(spec.bi_tau_s),
+            rrw: Vector3::repeat(spec.rrw),
         }
     }
 
-    /// Advances the bias processes by `dt` s.
+    /// Advances the bias processes by `dt` s (each axis with its own
+    /// magnitudes; an axis without a process keeps its state).
     pub fn advance(&mut self, dt: f64, rng: &mut Rng) {
-        let s = &self.spec;
-        if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 && s.flicker {
-            let sigma = s.bias_instability * FLICKER_SIGMA;
+        let has = |i: usize| self.bias_instability[i] > 0.0 && self.bi_tau_s[i] > 0.0;
+        let any_gm = (0..3).any(has);
+        // exp(-dt / tau) per axis (1 where there is no process) and the
+        // driving sigma that keeps the stationary sigma `sigma`.
+        let step = |tau_rel: f64, sigma: &Vector3<f64>| {
+            let phi = Vector3::from_fn(|i, _| {
+                if has(i) {
+                    (-dt / (self.bi_tau_s[i] * tau_rel)).exp()
+                } else {
+                    1.0
+                }
+            });
+            let q = Vector3::from_fn(|i, _| {
+                if has(i) {
+                    sigma[i] * (1.0 - phi[i] * phi[i]).sqrt()
+                } else {
+                    0.0
+                }
+            });
+            (phi, q)
+        };
+        if any_gm && self.spec.flicker {
+            let sigma = self.bias_instability * FLICKER_SIGMA;
             let mut sum = Vector3::zeros();
             for (b, rel) in self.gm_bank.iter_mut().zip(FLICKER_TAUS) {
-                let phi = (-dt / (s.bi_tau_s * rel)).exp();
-                *b = *b * phi + rng.normal3() * (sigma * (1.0 - phi * phi).sqrt());
+                let (phi, q) = step(rel, &sigma);
+                *b = b.component_mul(&phi) + rng.normal3().component_mul(&q);
                 sum += *b;
             }
             self.gm = sum;
-        } else if s.bias_instability > 0.0 && s.bi_tau_s > 0.0 {
-            let phi = (-dt / s.bi_tau_s).exp();
-            let q = s.bias_instability * (1.0 - phi * phi).sqrt();
-            self.gm = self.gm * phi + rng.normal3() * q;
+        } else if any_gm {
+            let (phi, q) = step(1.0, &self.bias_instability);
+            self.gm = self.gm.component_mul(&phi) + rng.normal3().component_mul(&q);
         }
-        if s.rrw > 0.0 {
-            self.rw += rng.normal3() * (s.rrw * dt.sqrt());
+        if self.rrw.iter().any(|r| *r > 0.0) {
+            self.rw += rng.normal3().component_mul(&(self.rrw * dt.sqrt()));
         }
     }
 
@@ -481,7 +514,7 @@ impl TriadModel {
         let s = &self.spec;
         // Drawn even at zero density, so the stream stays aligned across
         // configurations.
-        let y = y + rng.normal3() * (s.white / dt.sqrt());
+        let y = y + rng.normal3().component_mul(&(self.white / dt.sqrt()));
         y.map(|v| {
             let v = if s.full_scale > 0.0 {
                 v.clamp(-s.full_scale, s.full_scale)
@@ -530,6 +563,24 @@ impl ImuModel {
             g_sens,
             white: Rng::new(seed, 2),
             drift: Rng::new(seed, 4),
+        }
+    }
+
+    /// Starts the bias processes from their stationary distribution (each
+    /// axis's Gauss-Markov state drawn with its sigma; flicker banks
+    /// likewise), after their magnitudes were set per axis.
+    pub fn start_drift(&mut self) {
+        for t in [&mut self.gyro, &mut self.accel] {
+            if t.spec.flicker {
+                let sigma = t.bias_instability * FLICKER_SIGMA;
+                for b in t.gm_bank.iter_mut() {
+                    *b = self.drift.normal3().component_mul(&sigma);
+                }
+                t.gm = t.gm_bank.iter().sum();
+            } else {
+                t.gm = self.drift.normal3().component_mul(&t.bias_instability);
+            }
+            t.rw = Vector3::zeros();
         }
     }
 

@@ -24,4 +24,6 @@ pub mod imu;
 pub mod recording;
 pub mod rng;
 pub mod sim;
+pub mod track;
+pub mod twin;
 pub mod world;

@@ -211,7 +211,12 @@ pub fn record(g: &Grade, c: &SimConfig, seed: u64) -> Result<Recording, StudyErr
 
 /// Puts `effect` at `mag` into `c` (earth_rate: `mag` rad/s more than the
 /// earth's; bias_instability: `mag` x the grade's value).
-fn inject(c: &mut SimConfig, g: &ImuSpec, effect: EffectId, mag: f64) -> Result<(), StudyError> {
+pub fn inject(
+    c: &mut SimConfig,
+    g: &ImuSpec,
+    effect: EffectId,
+    mag: f64,
+) -> Result<(), StudyError> {
     match effect {
         EffectId::EarthRate => Ok(c.set_effect(effect.as_str(), 1.0 + mag / EARTH_RATE_RADPS)?),
         EffectId::BiasInstability => {

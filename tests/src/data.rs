@@ -41,6 +41,7 @@ pub const EXTERNAL: [Dataset; 3] = [
             "diagnose_real_noise::a_long_step_profile_on_real_drift_is_not_a_warm_up",
             "diagnose_real_noise::a_warm_up_on_real_drift_is_still_found",
             "diagnose_real_noise::cross_axis_g_sensitivity_on_a_horizontal_axis_is_g_sensitivity",
+            "twin::on_real_noise_every_hidden_effect_gives_a_close_twin",
         ],
     },
     Dataset {

@@ -31,6 +31,15 @@ pub struct Args {
     /// no noise), to compare or to diagnose again.
     #[arg(long)]
     pub resim: Option<PathBuf>,
+    /// Write the fitted model as a simulator model here (`rins-sim-model/1`
+    /// TOML: nominal terms, every finding, the noise per channel; `rins
+    /// simulate --like REC --sim-model M.toml` runs it), and judge the
+    /// recording against its twin with and without each finding.
+    #[arg(long, value_name = "M.toml")]
+    pub sim_model: Option<PathBuf>,
+    /// First seed of the twins drawn for `--sim-model`.
+    #[arg(long, default_value_t = 1)]
+    pub twin_seed: u64,
 }
 
 /// Runs `rins diagnose`.
@@ -62,6 +71,23 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string_pretty(&d.to_json())?)?;
         println!("wrote {}", p.display());
+    }
+    if let Some(mp) = &a.sim_model {
+        let pb = progress_bar("twin");
+        let source = format!("rins diagnose {name}");
+        let r = rins::diagnose::twin::report(&d, &rec, &opts.model, &source, a.twin_seed)
+            .map_err(|e| anyhow!("{name}: the twin: {e}"))?;
+        pb.finish_and_clear();
+        write_file(mp, &r.model.to_toml().map_err(|e| anyhow!("{e}"))?)?;
+        print!("{}", rins::diagnose::twin::text(&r));
+        println!("wrote {}", mp.display());
+        if let Some(dir) = &a.plots {
+            for p in rins::diagnose::twin::plots(&r, dir)
+                .with_context(|| format!("writing plots to {}", dir.display()))?
+            {
+                println!("wrote {}", p.display());
+            }
+        }
     }
     if let Some(dir) = &a.resim {
         d.resimulated(&rec)

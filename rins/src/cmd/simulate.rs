@@ -60,6 +60,15 @@ pub struct Args {
     /// List the effects and exit.
     #[arg(long)]
     pub list_effects: bool,
+    /// Re-simulate this recording's own run (its sample times, encoder
+    /// reads, temperatures, site and base) with the sensor of `--sim-model`:
+    /// its twin. The scheme, site and sensor flags do not apply.
+    #[arg(long, value_name = "REC", requires = "sim_model", conflicts_with_all = ["ideal", "effects", "list_effects"])]
+    pub like: Option<PathBuf>,
+    /// The sensor model for `--like` (`rins-sim-model/1` TOML, as `rins
+    /// diagnose --sim-model` writes it).
+    #[arg(long, value_name = "M.toml", requires = "like")]
+    pub sim_model: Option<PathBuf>,
     /// Output directory (must not hold a recording yet).
     #[arg(long, required_unless_present = "list_effects")]
     pub out: Option<PathBuf>,
@@ -138,6 +147,26 @@ pub fn run(a: &Args) -> Result<()> {
         .out
         .as_ref()
         .ok_or_else(|| anyhow!("--out DIR is required"))?;
+    if let (Some(like), Some(mp)) = (&a.like, &a.sim_model) {
+        let rec = super::read_recording(like)?;
+        let text =
+            std::fs::read_to_string(mp).with_context(|| format!("reading {}", mp.display()))?;
+        let model = hal_sim::twin::SimModel::from_toml(&text)
+            .map_err(|e| anyhow!("{}: {e}", mp.display()))?;
+        let twin = hal_sim::twin::simulate_like(&rec, &model, a.seed)
+            .map_err(|e| anyhow!("{}: {e}", like.display()))?;
+        twin.write(out)
+            .with_context(|| format!("writing {}", out.display()))?;
+        println!(
+            "wrote {}: the twin of {} ({} IMU samples, {} encoder reads, seed {})",
+            out.display(),
+            like.display(),
+            twin.imu.len(),
+            twin.table.len(),
+            a.seed
+        );
+        return Ok(());
+    }
     let cfg = a.config()?;
     let pb = progress_bar("simulate");
     let rec =

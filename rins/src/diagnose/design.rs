@@ -120,7 +120,7 @@ impl Design {
         // The encoder's quantisation at a block edge, per channel: the
         // quantum is the smallest step between reads; its error is uniform
         // (q^2 / 12), seen through the table axis over the block length.
-        let q_enc = encoder_quantum(&p.enc.1);
+        let q_enc = encoder_quantum(p.track.angles());
         let quant: [f64; 6] = std::array::from_fn(|ch| {
             if ch < 3 {
                 (p.k[ch] / block_s).powi(2) * q_enc * q_enc / 12.0
@@ -328,6 +328,45 @@ impl Design {
             rss_p,
             ho_p,
         }
+    }
+
+    /// The whitened energy of candidate `ci`'s signal as `fit` has it that
+    /// the model `alt` (nominal terms and candidates, without `ci`) cannot
+    /// reproduce: the noncentrality with which this run separates the two
+    /// explanations. Small (below the detection rule's `lambda_50`): the
+    /// run cannot tell them apart, whichever the selection chose.
+    pub(super) fn separation(&self, fit: &Fit, ci: usize, alt: &[usize]) -> f64 {
+        let mut u = alt.to_vec();
+        u.push(ci);
+        let fu = self.fit(&u);
+        let all = vec![true; fu.index.len()];
+        let ((a, _), _) = self.normal(&fu.index, &all, None);
+        let mut v = DVector::zeros(fu.index.len());
+        let mut s_rows = vec![];
+        for (k, i) in &fu.index {
+            match k {
+                Key::Effect { cand, .. } if *cand == ci => {
+                    v[*i] = fit.value(*k).map_or(0.0, |x| x.0);
+                }
+                _ => s_rows.push(*i),
+            }
+        }
+        let yy = (v.transpose() * &a * &v)[(0, 0)];
+        let ns = s_rows.len();
+        if ns == 0 {
+            return yy.max(0.0);
+        }
+        let av = &a * &v;
+        let b_s = DVector::from_fn(ns, |r, _| av[s_rows[r]]);
+        let mut a_s = DMatrix::from_fn(ns, ns, |r, c| a[(s_rows[r], s_rows[c])]);
+        let sub_index: Vec<(Key, usize)> = s_rows
+            .iter()
+            .enumerate()
+            .map(|(j, i)| (fu.index[*i].0, j))
+            .collect();
+        add_prior(&mut a_s, &sub_index, &vec![true; ns]);
+        let (beta, _) = solve(&a_s, &b_s);
+        (yy - b_s.dot(&beta)).max(0.0)
     }
 
     /// Whitened normal equations over all rows (`fold` None) or one fold.

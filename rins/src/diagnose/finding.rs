@@ -158,6 +158,15 @@ pub struct Details {
     /// Ljung-Box whiteness of the whitened final residual per channel:
     /// (statistic, lags).
     pub whiteness: Vec<(f64, usize)>,
+    /// The nominal terms of the final fit per channel: intercept (channel
+    /// unit) and the coefficients on the triad's truth x, y, z (1); `None`
+    /// where the run did not excite the term.
+    pub nominal: [[Option<f64>; 4]; 6],
+    /// The earth rate the prediction includes, x the site's.
+    pub earth_scale: f64,
+    /// Intervals between encoder reads (start, end, s) the prediction cannot
+    /// follow the table through (hal-sim's `EncoderTrack::unfollowed`).
+    pub unfollowed: Vec<(f64, f64)>,
 }
 
 /// The report.

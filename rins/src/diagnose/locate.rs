@@ -13,7 +13,7 @@ pub const HARMONICS: usize = 8;
 /// Table acceleration above which a sample is in a rate change, rad/s^2
 /// (5 deg/s^2: well above the encoder-derived acceleration's noise at a
 /// steady rate once averaged over a block).
-const RAMP_RADPS2: f64 = 0.087;
+pub const RAMP_RADPS2: f64 = 0.087;
 
 /// The nominal residual, located.
 #[derive(Clone, Debug, Default)]
@@ -32,7 +32,7 @@ pub struct Locate {
 /// Which part of the run each sample is in (0 still, 1 turning +, 2
 /// turning -, 3 rate changing). The rate and acceleration come from encoder
 /// angles 0.2 s apart, so quantisation does not pass for a ramp.
-fn parts(p: &Prediction) -> Vec<usize> {
+pub fn parts(p: &Prediction) -> Vec<usize> {
     const H: f64 = 0.2;
     (0..p.t_s.len())
         .map(|r| {
@@ -43,7 +43,9 @@ fn parts(p: &Prediction) -> Vec<usize> {
         .collect()
 }
 
-fn part_of(w: f64, a: f64) -> usize {
+/// Which part of the run a table rate `w` (rad/s) and acceleration `a`
+/// (rad/s^2) are in: 0 still, 1 turning +, 2 turning -, 3 rate changing.
+pub fn part_of(w: f64, a: f64) -> usize {
     if a.abs() > RAMP_RADPS2 {
         3
     } else if core_nav::table::is_still(w) {
@@ -116,14 +118,17 @@ pub fn harmonics_all(res: &[&[f64]], theta: &[f64], kmax: usize) -> Vec<Vec<f64>
         .collect()
 }
 
+/// The parts of a run [`parts`] returns, by index.
+pub const PART_LABELS: [&str; 4] = ["table still", "turning +", "turning -", "rate changing"];
+
 /// Locates the nominal residual.
 pub fn locate(p: &Prediction, res: &[Vec<f64>; 6], dt: f64) -> Locate {
     let n = p.t_s.len();
     let labels = [
-        "table still",
-        "turning +",
-        "turning -",
-        "rate changing",
+        PART_LABELS[0],
+        PART_LABELS[1],
+        PART_LABELS[2],
+        PART_LABELS[3],
         "first half",
         "second half",
     ];

@@ -55,6 +55,7 @@ pub mod predict;
 mod report;
 mod select;
 pub mod show;
+pub mod twin;
 
 pub use error::DiagnoseError;
 pub use finding::{Details, Diagnosis, Finding, FitFigures, Parameter, Unexplained};

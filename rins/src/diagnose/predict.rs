@@ -4,6 +4,8 @@
 
 use super::DiagnoseError;
 use hal_sim::recording::Recording;
+pub use hal_sim::track::encoder_quantum;
+use hal_sim::track::EncoderTrack;
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
 
 /// The ideal sensor and the table motion at each IMU sample.
@@ -31,8 +33,8 @@ pub struct Prediction {
     pub earth_in_model_radps: f64,
     /// Earth-rate part of `w` (as the model has it), rad/s in s.
     pub w_earth: Vec<Vector3<f64>>,
-    /// Encoder read times, s, and angles, rad (as recorded).
-    pub enc: (Vec<f64>, Vec<f64>),
+    /// The table's motion from the encoder reads (hal-sim's table model).
+    pub track: EncoderTrack,
     /// IMU samples are this late relative to their stamps, s.
     pub time_offset_s: f64,
     /// Measured samples minus the model's known effects: gyro (rad/s).
@@ -47,40 +49,10 @@ pub struct Prediction {
 
 impl Prediction {
     /// Encoder angle at stamp `t` (rad): the read itself when one is stamped
-    /// there (to 1 us), else the quadratic through the three nearest reads
-    /// (exact on the constant-acceleration pieces of a table profile).
+    /// there (to 1 us), else the table's fitted shape through the reads
+    /// (hal-sim's [`EncoderTrack`]).
     pub fn angle_at(&self, t: f64) -> f64 {
-        let (te, ae) = (&self.enc.0, &self.enc.1);
-        let n = te.len();
-        if n == 0 {
-            return 0.0;
-        }
-        let j = te.partition_point(|x| *x < t);
-        for c in [j.saturating_sub(1), j.min(n - 1)] {
-            if (te[c] - t).abs() < 1e-6 {
-                return ae[c];
-            }
-        }
-        if n < 3 {
-            return ae[j.min(n - 1)];
-        }
-        // Three nearest reads.
-        let lo = if j == 0 {
-            0
-        } else if j >= n {
-            n - 3
-        } else if j + 1 < n && (te[j + 1] - t) < (t - te[j - 1]) {
-            j - 1
-        } else {
-            j.saturating_sub(2)
-        }
-        .min(n - 3);
-        let (t0, t1, t2) = (te[lo], te[lo + 1], te[lo + 2]);
-        let (a0, a1, a2) = (ae[lo], ae[lo + 1], ae[lo + 2]);
-        let l0 = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2));
-        let l1 = (t - t0) * (t - t2) / ((t1 - t0) * (t1 - t2));
-        let l2 = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1));
-        a0 * l0 + a1 * l1 + a2 * l2
+        self.track.angle(t)
     }
 
     /// Ideal value of channel `ch` at sample `r`.
@@ -119,34 +91,6 @@ impl Prediction {
     }
 }
 
-/// Local quadratic fit of the encoder angle around `t` (the 5 nearest
-/// reads): angle, rate, acceleration.
-fn table_at(t: &[f64], a: &[f64], i0: usize, tq: f64) -> (f64, f64, f64) {
-    let n = t.len();
-    let lo = i0.saturating_sub(2).min(n.saturating_sub(5));
-    let hi = (lo + 5).min(n);
-    let m = hi - lo;
-    if m < 3 {
-        return (a.get(i0).copied().unwrap_or(0.0), 0.0, 0.0);
-    }
-    // 3x3 normal equations of the quadratic in (t - tq).
-    let mut ata = Matrix3::<f64>::zeros();
-    let mut aty = Vector3::<f64>::zeros();
-    for r in lo..hi {
-        let d = t[r] - tq;
-        let row = Vector3::new(1.0, d, d * d);
-        ata += row * row.transpose();
-        aty += row * a[r];
-    }
-    match ata.cholesky() {
-        Some(c) => {
-            let s = c.solve(&aty);
-            (s[0], s[1], 2.0 * s[2])
-        }
-        None => (a.get(i0).copied().unwrap_or(0.0), 0.0, 0.0),
-    }
-}
-
 /// Predicts the ideal sensor for `rec` (the nominal world: earth rate scaled
 /// by `earth_scale`, gravity, the table's motion about its nominal axis),
 /// with the IMU samples `time_offset_s` late relative to their stamps.
@@ -155,8 +99,7 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
     let site = m.site();
     let c_b_n = core_nav::site::c_b_n(&m.base());
     let k = Unit::new_normalize(m.axis.unit::<f64>());
-    let te: Vec<f64> = rec.table.iter().map(|r| r.t_s).collect();
-    let ae: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
+    let track = EncoderTrack::of(rec);
     let temp_recorded = rec.imu.iter().all(|r| r.temp_c.is_some()) && !rec.imu.is_empty();
     let temp0 = rec.imu.first().and_then(|r| r.temp_c).unwrap_or(25.0);
     // The ideal sensor in the base frame (the table at angle 0): the site's
@@ -173,17 +116,13 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         w_e_b,
         earth_in_model_radps: earth_scale * w_e_b.norm(),
         temp_recorded,
-        enc: (te.clone(), ae.clone()),
+        track,
         time_offset_s,
         ..Prediction::default()
     };
-    let mut j = 0usize;
     for r in &rec.imu {
-        let tq = r.t_s - time_offset_s;
-        while j + 1 < te.len() && te[j + 1] <= tq {
-            j += 1;
-        }
-        let (th, rate, acc) = table_at(&te, &ae, j, tq);
+        let m = p.track.at(r.t_s - time_offset_s);
+        let (th, rate, acc) = (m.theta, m.rate, m.accel);
         let c_s_b: Matrix3<f64> = *Rotation3::from_axis_angle(&k, th).matrix();
         let c_n_s = (c_b_n * c_s_b).transpose();
         let (w, f) = model_site.ideal_imu(&c_n_s, &(k.into_inner() * rate));
@@ -219,30 +158,6 @@ pub fn blocks(v: &[f64], len: usize) -> Vec<f64> {
             (inner + 0.5 * (s[0] + s[len])) / len as f64
         })
         .collect()
-}
-
-/// The encoder's quantum, rad: the smallest non-zero step between
-/// consecutive reads, if the steps are whole multiples of it (a quantised
-/// encoder); 0 for an encoder whose angles are not on a grid.
-pub fn encoder_quantum(a: &[f64]) -> f64 {
-    let steps: Vec<f64> = a
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > 1e-12)
-        .collect();
-    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
-    if !q.is_finite() {
-        return 0.0;
-    }
-    let on_grid = steps
-        .iter()
-        .take(2000)
-        .all(|d| ((d / q) - (d / q).round()).abs() < 1e-3);
-    if on_grid {
-        q
-    } else {
-        0.0
-    }
 }
 
 pub(super) fn check(rec: &Recording) -> Result<(), DiagnoseError> {

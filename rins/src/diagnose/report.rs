@@ -270,6 +270,11 @@ pub(super) fn report(
             theta: p.theta.iter().map(|t| t.0).collect(),
             t_s: p.t_s.clone(),
             whiteness,
+            nominal: std::array::from_fn(|ch| {
+                std::array::from_fn(|j| sel.fit.value(Key::Nominal { ch, j }).map(|v| v.0))
+            }),
+            earth_scale: p.earth_in_model_radps / p.w_e_b.norm().max(1e-300),
+            unfollowed: p.track.unfollowed().to_vec(),
         },
     }
 }

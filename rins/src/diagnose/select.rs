@@ -202,6 +202,10 @@ pub(super) struct Judged {
 /// candidate.
 pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> {
     let ln_n = (d.rows().max(2) as f64).ln();
+    // The noncentrality the BIC rule detects half the time (one degree of
+    // freedom): a difference between two explanations below it is one
+    // this run does not show.
+    let lam50 = super::fisher::lambda_50(1, d.rows());
     let mut out = vec![];
     for &ci in &sel.set {
         let c = &d.cands[ci];
@@ -240,7 +244,9 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
         }
         let nr = nr.max(1) as f64;
         // Look-alikes: a candidate not chosen that, in place of this one,
-        // explains as much (within the BIC margin).
+        // explains as much (within the BIC margin), or whose signature
+        // differs from this one's, at the fitted size, by less than the run
+        // can detect (the choice between them is the noise's).
         let mut explanation = c.explain().to_string();
         let mut lookalike = None;
         for (di, dc) in d.cands.iter().enumerate() {
@@ -250,7 +256,13 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             let Some((dbic_alt, _)) = adding(d, &rest, &f0, di, ln_n) else {
                 continue;
             };
-            if dbic_alt < -BIC_MARGIN && dbic_alt - dbic < BIC_MARGIN {
+            let alike = dbic_alt < -BIC_MARGIN
+                && (dbic_alt - dbic < BIC_MARGIN || {
+                    let mut alt = rest.clone();
+                    alt.push(di);
+                    d.separation(f1, ci, &alt) < lam50
+                });
+            if alike {
                 explanation += &format!(
                     ". In this run it cannot be told apart from {} (delta BIC {:.0} against {:.0}): to separate them, {}",
                     dc.id,

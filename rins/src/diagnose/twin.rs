@@ -1,0 +1,615 @@
+//! The simulator is the model: a diagnosis written as a hal-sim sensor model
+//! ([`SimModel`], `rins diagnose --sim-model`), the recording's own run
+//! re-simulated with it ([`hal_sim::twin::simulate_like`], `rins simulate
+//! --like`), and the recording judged against that twin.
+//!
+//! **Closeness.** The twin is good when the recording sits as close to it as
+//! two seeds of the twin sit to each other: per channel, the rms difference
+//! of 1 s block means between the recording and each of [`TWIN_SEEDS`]
+//! twins, over the same between every pair of twins. A ratio near 1: the
+//! recording is one more draw of the twin; well above 1: the twin misses
+//! something the recording has (a finding left out, a noise model too
+//! quiet). Judged good at [`GOOD_RATIO`] or below on every channel.
+//!
+//! **With and without each finding.** The recording against the noise-free
+//! twin with every finding, with none (the nominal model) and without each
+//! finding in turn: the residual by motion, at the table-angle harmonics,
+//! its Allan deviation, and the closeness ratio. The fit improves with the
+//! simulator itself, not with the regression's own columns.
+
+use super::locate::{harmonics, parts, PART_LABELS};
+use super::{blocks, predict, Diagnosis, Model, CHANNELS};
+use hal_sim::catalogue::EffectId;
+use hal_sim::recording::Recording;
+use hal_sim::twin::{simulate_like, ChannelNoise, SimModel, TwinError, Warmup, FORMAT};
+
+/// Block length of the closeness measure, s.
+pub const CLOSENESS_BLOCK_S: f64 = 1.0;
+/// Twins drawn per closeness (seeds `seed .. seed + TWIN_SEEDS`): four give
+/// six twin pairs, so the reference spread is itself known to ~10 % on a
+/// 10-minute run (600 blocks, fewer independent ones where drift rules).
+pub const TWIN_SEEDS: u64 = 4;
+/// The closeness ratio at or below which a twin is judged good (the
+/// issue's goal: a recording 30 % farther from its twin than two twins are
+/// from each other is not one more draw of it).
+pub const GOOD_RATIO: f64 = 1.3;
+/// Harmonics of the table angle reported.
+pub const TWIN_HARMONICS: usize = 4;
+
+/// How close a recording sits to its twin (channel unit, 1 s block means).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Closeness {
+    /// Rms difference, recording vs twin, per channel.
+    pub rec_to_twin: [f64; 6],
+    /// Rms difference, twin vs twin (other seeds), per channel.
+    pub twin_to_twin: [f64; 6],
+}
+
+impl Closeness {
+    /// Ratio per channel.
+    pub fn ratio(&self) -> [f64; 6] {
+        std::array::from_fn(|c| self.rec_to_twin[c] / self.twin_to_twin[c].max(1e-300))
+    }
+
+    /// The channel farthest from its twin and its ratio.
+    pub fn worst(&self) -> (usize, f64) {
+        self.ratio()
+            .into_iter()
+            .enumerate()
+            .fold((0, 0.0), |a, (c, r)| if r > a.1 { (c, r) } else { a })
+    }
+
+    /// Every channel at or below [`GOOD_RATIO`].
+    pub fn good(&self) -> bool {
+        self.worst().1 <= GOOD_RATIO
+    }
+}
+
+fn channel(rec: &Recording, ch: usize) -> Vec<f64> {
+    rec.imu
+        .iter()
+        .map(|r| {
+            if ch < 3 {
+                r.gyro_radps[ch]
+            } else {
+                r.accel_mps2[ch - 3]
+            }
+        })
+        .collect()
+}
+
+fn block_len(rec: &Recording) -> usize {
+    let n = rec.imu.len();
+    let dt = match (rec.imu.first(), rec.imu.last()) {
+        (Some(a), Some(b)) if n > 1 => (b.t_s - a.t_s) / (n - 1) as f64,
+        _ => 0.01,
+    };
+    ((CLOSENESS_BLOCK_S / dt.max(1e-9)).round() as usize).max(1)
+}
+
+fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len()).max(1);
+    (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / n as f64).sqrt()
+}
+
+/// The closeness of `rec` to the twin of `model`, from twins with seeds
+/// `seed .. seed + TWIN_SEEDS`.
+///
+/// # Errors
+/// The twin cannot be simulated ([`simulate_like`]).
+pub fn closeness(rec: &Recording, model: &SimModel, seed: u64) -> Result<Closeness, TwinError> {
+    let twins: Vec<Recording> = std::thread::scope(|sc| {
+        let hs: Vec<_> = (0..TWIN_SEEDS)
+            .map(|k| sc.spawn(move || simulate_like(rec, model, seed.wrapping_add(k))))
+            .collect();
+        hs.into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err(TwinError::Recording("a twin thread failed".into())))
+            })
+            .collect::<Result<Vec<_>, _>>()
+    })?;
+    Ok(closeness_to(rec, &twins))
+}
+
+/// The closeness of `rec` to already simulated `twins` (at least two).
+pub fn closeness_to(rec: &Recording, twins: &[Recording]) -> Closeness {
+    let len = block_len(rec);
+    let mut c = Closeness::default();
+    for ch in 0..6 {
+        let r = blocks(&channel(rec, ch), len);
+        let tw: Vec<Vec<f64>> = twins.iter().map(|t| blocks(&channel(t, ch), len)).collect();
+        let ms = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64;
+        let rt: Vec<f64> = tw.iter().map(|t| rms_diff(&r, t)).collect();
+        let mut tt = vec![];
+        for i in 0..tw.len() {
+            for j in i + 1..tw.len() {
+                tt.push(rms_diff(&tw[i], &tw[j]));
+            }
+        }
+        c.rec_to_twin[ch] = ms(&rt).sqrt();
+        c.twin_to_twin[ch] = ms(&tt).sqrt();
+    }
+    c
+}
+
+impl Diagnosis {
+    /// The diagnosis as a simulator model: the nominal terms, every finding
+    /// (and the effects `model` already had), the noise model per channel.
+    pub fn sim_model(&self, model: &Model, source: &str) -> SimModel {
+        self.sim_model_without(model, source, None)
+    }
+
+    /// [`Self::sim_model`] without finding `skip` (an index into
+    /// `findings`).
+    pub fn sim_model_without(&self, model: &Model, source: &str, skip: Option<usize>) -> SimModel {
+        let det = &self.details;
+        let mut m = SimModel {
+            format: FORMAT.into(),
+            source: source.into(),
+            earth_rate_scale: det.earth_scale,
+            ..SimModel::default()
+        };
+        for ch in 0..6 {
+            let t = if ch < 3 { &mut m.gyro } else { &mut m.accel };
+            let i = ch % 3;
+            let nom = det.nominal.get(ch).copied().unwrap_or([None; 4]);
+            t.bias[i] = nom[0].unwrap_or(0.0);
+            for j in 0..3 {
+                t.scale_misalignment[i][j] = nom[j + 1].unwrap_or(0.0);
+            }
+            if let Some(n) = det.noise.get(ch) {
+                let q = n.lambda * n.r;
+                t.noise[i] = ChannelNoise {
+                    white: n.white_density(),
+                    ..ChannelNoise::default()
+                };
+                if n.lambda > 0.0 && n.phi < 1.0 {
+                    t.noise[i].gm_sigma = n.gm_sigma();
+                    t.noise[i].gm_tau_s = n.tau_s();
+                } else if n.lambda > 0.0 {
+                    t.noise[i].random_walk = (q / n.block_s.max(1e-9)).sqrt();
+                }
+            }
+        }
+        for (id, params) in &model.known {
+            if id == "earth_rate" {
+                continue; // in the prediction, so in det.earth_scale
+            }
+            for (name, v) in params {
+                put(&mut m, name, *v);
+            }
+        }
+        for (fi, f) in self.findings.iter().enumerate() {
+            if Some(fi) == skip {
+                if f.effect == EffectId::BiasInstability {
+                    // Without it: white noise only on its channels.
+                    for ch in &f.channels {
+                        let t = if *ch < 3 { &mut m.gyro } else { &mut m.accel };
+                        if let Some(n) = t.noise.get_mut(ch % 3) {
+                            *n = ChannelNoise {
+                                white: n.white,
+                                ..ChannelNoise::default()
+                            };
+                        }
+                    }
+                }
+                continue;
+            }
+            if f.effect == EffectId::EarthRate {
+                if let Some(v) = f.value("earth_rate_radps") {
+                    m.earth_rate_scale = v / core_nav::earth::EARTH_RATE_RADPS;
+                }
+                continue;
+            }
+            for p in &f.parameters {
+                put(&mut m, &p.name, p.value);
+            }
+        }
+        m
+    }
+}
+
+/// Puts one diagnose parameter (its report name) into the sim model; names
+/// that are not sensor terms (the noise's, reported with a bias
+/// instability) are left to the noise model.
+fn put(m: &mut SimModel, name: &str, v: f64) {
+    let axis = |c: Option<char>| match c {
+        Some('x') => Some(0usize),
+        Some('y') => Some(1),
+        Some('z') => Some(2),
+        _ => None,
+    };
+    let nth = |s: &str, n: usize| s.chars().nth(n);
+    let add = |x: &mut f64| *x += v;
+    if let Some(rest) = name.strip_prefix("g_sens_") {
+        if let (Some(i), Some(j)) = (axis(nth(rest, 0)), axis(nth(rest, 1))) {
+            add(&mut m.g_sens_radps_per_mps2[i][j]);
+        }
+    } else if let Some(rest) = name.strip_prefix("k2_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            if rest.ends_with("per_radps") {
+                add(&mut m.gyro.k2[i]);
+            } else {
+                add(&mut m.accel.k2[i]);
+            }
+        }
+    } else if let Some(rest) = name.strip_prefix("asymmetry_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            add(&mut m.gyro.asymmetry[i]);
+        }
+    } else if let Some(rest) = name.strip_prefix("lever_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            add(&mut m.lever_arm_m[i]);
+        }
+    } else if let Some(rest) = name.strip_prefix("tilt_about_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            add(&mut m.tilt_rad[i]);
+        }
+    } else if name == "time_offset_s" {
+        add(&mut m.time_offset_s);
+    } else if let Some(rest) = name.strip_prefix("temp_bias_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            if rest.contains("radps") {
+                add(&mut m.gyro.temp_bias_per_degc[i]);
+            } else {
+                add(&mut m.accel.temp_bias_per_degc[i]);
+            }
+        }
+    } else if let Some(rest) = name.strip_prefix("warmup_bias_") {
+        if let Some(i) = axis(nth(rest, 0)) {
+            add(&mut m.warmup.get_or_insert_with(Warmup::default).gyro_bias_radps[i]);
+        }
+    } else if name == "warmup_tau_s" {
+        m.warmup.get_or_insert_with(Warmup::default).tau_s = v;
+    } else if name == "encoder_cos_rad" {
+        add(&mut m.encoder_error_rad[0]);
+    } else if name == "encoder_sin_rad" {
+        add(&mut m.encoder_error_rad[1]);
+    }
+}
+
+/// The recording minus a noise-free twin, located.
+#[derive(Clone, Debug, Default)]
+pub struct Residuals {
+    /// (part of the run, rms per channel, samples).
+    pub by_part: Vec<(String, [f64; 6], usize)>,
+    /// Amplitudes at table-angle harmonics 1..=TWIN_HARMONICS per channel
+    /// (empty when the table did not turn a whole revolution).
+    pub harmonics: Vec<[f64; 6]>,
+    /// Allan deviation per channel: (tau s, adev channel unit).
+    pub allan: Vec<Vec<(f64, f64)>>,
+    /// Rms per channel over the run.
+    pub rms: [f64; 6],
+}
+
+/// One twin compared with the recording.
+#[derive(Clone, Debug)]
+pub struct TwinRun {
+    /// "every finding", "nominal only", "without <id>".
+    pub label: String,
+    /// The finding left out, if any.
+    pub without: Option<EffectId>,
+    /// Closeness of the recording to this twin.
+    pub closeness: Closeness,
+    /// The recording minus this twin without noise.
+    pub residuals: Residuals,
+}
+
+/// The recording against its twin with and without each finding.
+#[derive(Clone, Debug)]
+pub struct TwinReport {
+    /// The model with every finding (what `--sim-model` writes).
+    pub model: SimModel,
+    /// Every finding first, then the nominal model, then one run without
+    /// each finding.
+    pub runs: Vec<TwinRun>,
+}
+
+impl TwinReport {
+    /// The twin with every finding.
+    pub fn full(&self) -> Option<&TwinRun> {
+        self.runs.first()
+    }
+}
+
+fn residuals(rec: &Recording, twin: &Recording, part: &[usize], theta: &[f64]) -> Residuals {
+    let dt = match (rec.imu.first(), rec.imu.last()) {
+        (Some(a), Some(b)) if rec.imu.len() > 1 => (b.t_s - a.t_s) / (rec.imu.len() - 1) as f64,
+        _ => 0.01,
+    };
+    let res: Vec<Vec<f64>> = (0..6)
+        .map(|ch| {
+            channel(rec, ch)
+                .iter()
+                .zip(channel(twin, ch))
+                .map(|(a, b)| a - b)
+                .collect()
+        })
+        .collect();
+    let rms_of = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let mut out = Residuals {
+        rms: std::array::from_fn(|ch| rms_of(&res[ch])),
+        ..Residuals::default()
+    };
+    for (li, label) in PART_LABELS.iter().enumerate() {
+        let idx: Vec<usize> = (0..part.len()).filter(|r| part[*r] == li).collect();
+        if idx.is_empty() {
+            continue;
+        }
+        let v: [f64; 6] = std::array::from_fn(|ch| {
+            rms_of(
+                &idx.iter()
+                    .filter_map(|r| res[ch].get(*r).copied())
+                    .collect::<Vec<_>>(),
+            )
+        });
+        out.by_part.push(((*label).to_string(), v, idx.len()));
+    }
+    let turned = theta
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| {
+            (lo.min(*t), hi.max(*t))
+        });
+    if turned.1 - turned.0 >= std::f64::consts::TAU {
+        let h: Vec<Vec<f64>> = (0..6)
+            .map(|ch| harmonics(&res[ch], theta, TWIN_HARMONICS))
+            .collect();
+        out.harmonics = (0..TWIN_HARMONICS)
+            .map(|k| std::array::from_fn(|ch| h[ch].get(k).copied().unwrap_or(0.0)))
+            .collect();
+    }
+    out.allan = res
+        .iter()
+        .map(|r| {
+            core_nav::allan::octave_factors(r.len(), 20)
+                .filter_map(|m| core_nav::allan::oadev(r, dt, m))
+                .filter(|p| p.adev > 0.0)
+                .map(|p| (p.tau_s, p.adev))
+                .collect()
+        })
+        .collect();
+    out
+}
+
+/// The recording against the twin of diagnosis `d` (made with `model`):
+/// with every finding, with none, without each in turn. Twins are drawn
+/// from seeds `seed ..`.
+///
+/// # Errors
+/// A twin cannot be simulated.
+pub fn report(
+    d: &Diagnosis,
+    rec: &Recording,
+    model: &Model,
+    source: &str,
+    seed: u64,
+) -> Result<TwinReport, TwinError> {
+    let full = d.sim_model(model, source);
+    let mut variants: Vec<(String, Option<EffectId>, SimModel)> =
+        vec![("every finding".into(), None, full.clone())];
+    if !d.findings.is_empty() {
+        let mut nominal = full.clone();
+        for fi in 0..d.findings.len() {
+            // Strip every finding: rebuild without each, keeping the nominal.
+            nominal = strip(
+                &nominal,
+                &d.sim_model_without(model, source, Some(fi)),
+                &full,
+            );
+        }
+        variants.push(("nominal only".into(), None, nominal));
+    }
+    for (fi, f) in d.findings.iter().enumerate() {
+        let triad = if f.effect == EffectId::BiasInstability {
+            if f.channels.iter().all(|c| *c < 3) {
+                " (gyros)"
+            } else {
+                " (accels)"
+            }
+        } else {
+            ""
+        };
+        variants.push((
+            format!("without {}{triad}", f.effect.as_str()),
+            Some(f.effect),
+            d.sim_model_without(model, source, Some(fi)),
+        ));
+    }
+    let p = predict(rec, full.earth_rate_scale, full.time_offset_s);
+    let part = parts(&p);
+    let theta: Vec<f64> = p.theta.iter().map(|t| t.0).collect();
+    let mut runs = vec![];
+    for (label, without, m) in variants {
+        let clean = simulate_like(rec, &m.noise_free(), seed)?;
+        runs.push(TwinRun {
+            label,
+            without,
+            closeness: closeness(rec, &m, seed)?,
+            residuals: residuals(rec, &clean, &part, &theta),
+        });
+    }
+    Ok(TwinReport { model: full, runs })
+}
+
+/// `acc` with every term where `without` differs from `full` taken from
+/// `without` (so stripping findings one by one leaves the nominal model).
+fn strip(acc: &SimModel, without: &SimModel, full: &SimModel) -> SimModel {
+    let pick = |a: f64, w: f64, f: f64| if w != f { w } else { a };
+    let pick3 = |a: [f64; 3], w: [f64; 3], f: [f64; 3]| -> [f64; 3] {
+        std::array::from_fn(|i| pick(a[i], w[i], f[i]))
+    };
+    let mut m = acc.clone();
+    m.earth_rate_scale = pick(
+        acc.earth_rate_scale,
+        without.earth_rate_scale,
+        full.earth_rate_scale,
+    );
+    m.time_offset_s = pick(acc.time_offset_s, without.time_offset_s, full.time_offset_s);
+    m.lever_arm_m = pick3(acc.lever_arm_m, without.lever_arm_m, full.lever_arm_m);
+    m.tilt_rad = pick3(acc.tilt_rad, without.tilt_rad, full.tilt_rad);
+    m.encoder_error_rad = std::array::from_fn(|i| {
+        pick(
+            acc.encoder_error_rad[i],
+            without.encoder_error_rad[i],
+            full.encoder_error_rad[i],
+        )
+    });
+    m.g_sens_radps_per_mps2 = std::array::from_fn(|i| {
+        pick3(
+            acc.g_sens_radps_per_mps2[i],
+            without.g_sens_radps_per_mps2[i],
+            full.g_sens_radps_per_mps2[i],
+        )
+    });
+    if without.warmup != full.warmup {
+        m.warmup = without.warmup;
+    }
+    for (t, (w, f)) in [
+        (&mut m.gyro, (&without.gyro, &full.gyro)),
+        (&mut m.accel, (&without.accel, &full.accel)),
+    ] {
+        t.k2 = pick3(t.k2, w.k2, f.k2);
+        t.asymmetry = pick3(t.asymmetry, w.asymmetry, f.asymmetry);
+        t.temp_bias_per_degc = pick3(
+            t.temp_bias_per_degc,
+            w.temp_bias_per_degc,
+            f.temp_bias_per_degc,
+        );
+        for i in 0..3 {
+            if w.noise[i] != f.noise[i] {
+                t.noise[i] = w.noise[i];
+            }
+        }
+    }
+    m
+}
+
+/// The twin report as text.
+pub fn text(r: &TwinReport) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "\nThe twin (hal-sim re-simulating this run with the fitted model; {} seeds, {:.0} s block means):\n",
+        TWIN_SEEDS, CLOSENESS_BLOCK_S
+    ));
+    s.push_str(&format!(
+        "  {:<28} {}  worst  verdict\n",
+        "twin",
+        CHANNELS.map(|c| format!("{c:>8}")).join("")
+    ));
+    for run in &r.runs {
+        let ratio = run.closeness.ratio();
+        let (wc, w) = run.closeness.worst();
+        s.push_str(&format!(
+            "  {:<28} {}  {:>5.2}  {}\n",
+            run.label,
+            ratio.map(|x| format!("{x:>8.2}")).join(""),
+            w,
+            if w <= GOOD_RATIO {
+                let (lc, lo) = ratio
+                    .iter()
+                    .enumerate()
+                    .fold(
+                        (0, f64::INFINITY),
+                        |a, (c, r)| if *r < a.1 { (c, *r) } else { a },
+                    );
+                if lo < 1.0 / GOOD_RATIO {
+                    format!(
+                        "good (the twin is noisier than the recording on {})",
+                        CHANNELS[lc]
+                    )
+                } else {
+                    "good".to_string()
+                }
+            } else {
+                format!("{} farther than a twin", CHANNELS[wc])
+            }
+        ));
+    }
+    s.push_str(&format!(
+        "  (recording-to-twin over twin-to-twin rms of 1 s means; good at <= {GOOD_RATIO})\n"
+    ));
+    s.push_str("  residual rms against the noise-free twin, by motion (deg/h gyro, ug accel):\n");
+    let eng = |ch: usize, v: f64| {
+        if ch < 3 {
+            v.to_degrees() * 3600.0
+        } else {
+            v / 9.806_65e-6
+        }
+    };
+    for run in &r.runs {
+        for (k, (label, v, n)) in run.residuals.by_part.iter().enumerate() {
+            s.push_str(&format!(
+                "    {:<28} {:<14} {} ({n} samples)\n",
+                if k == 0 { run.label.as_str() } else { "" },
+                label,
+                (0..6)
+                    .map(|ch| format!("{:>9.1}", eng(ch, v[ch])))
+                    .collect::<String>()
+            ));
+        }
+        if let Some(h1) = run.residuals.harmonics.first() {
+            s.push_str(&format!(
+                "    {:<28} {:<14} {}\n",
+                "",
+                "1x harmonic",
+                (0..6)
+                    .map(|ch| format!("{:>9.1}", eng(ch, h1[ch])))
+                    .collect::<String>()
+            ));
+        }
+    }
+    s
+}
+
+/// Plots: the recording's residual against each twin, Allan deviation per
+/// triad (`twin_allan_gyro`, `twin_allan_accel`).
+///
+/// # Errors
+/// Writing the files.
+pub fn plots(
+    r: &TwinReport,
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError> {
+    use crate::plot::{Chart, Series};
+    let mut out = vec![];
+    for (triad, label, unit, scale) in [
+        (
+            0usize,
+            "gyro",
+            "deg/h",
+            180.0 / std::f64::consts::PI * 3600.0,
+        ),
+        (1, "accel", "ug", 1.0 / 9.806_65e-6),
+    ] {
+        let mut c = Chart {
+            title: format!(
+                "{label}: recording minus its twin, Allan deviation (with / without each finding)"
+            ),
+            x_label: "tau (s)".into(),
+            y_label: unit.into(),
+            log_x: true,
+            log_y: true,
+            ..Chart::default()
+        };
+        for i in 0..3 {
+            let ch = 3 * triad + i;
+            for (k, run) in r.runs.iter().enumerate() {
+                let pts: Vec<(f64, f64)> = run
+                    .residuals
+                    .allan
+                    .get(ch)
+                    .map(|v| v.iter().map(|(t, a)| (*t, a * scale)).collect())
+                    .unwrap_or_default();
+                if pts.is_empty() {
+                    continue;
+                }
+                let mut se = Series::line(format!("{} {}", CHANNELS[ch], run.label), pts);
+                se.dashed = k > 0;
+                c.series.push(se);
+            }
+        }
+        out.extend(c.write(&dir.join(format!("twin_allan_{label}")))?);
+    }
+    Ok(out)
+}
