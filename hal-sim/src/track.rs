@@ -303,28 +303,30 @@ impl EncoderTrack {
     }
 }
 
-/// The encoder's quantum, rad: the smallest non-zero step between
-/// consecutive reads, if the steps are whole multiples of it (a quantised
-/// encoder); 0 for an encoder whose angles are not on a grid.
+/// The encoder's quantum, rad: the largest step of which every step
+/// between consecutive reads is a whole multiple (the smallest non-zero
+/// step divided by 1 ..= 64: a table that starts from rest may first move
+/// several counts in one read); 0 for an encoder whose angles are not on a
+/// grid.
 pub fn encoder_quantum(a: &[f64]) -> f64 {
     let steps: Vec<f64> = a
         .windows(2)
         .map(|w| (w[1] - w[0]).abs())
         .filter(|d| *d > 1e-12)
+        .take(20_000)
         .collect();
-    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
-    if !q.is_finite() {
+    let m = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    if !m.is_finite() {
         return 0.0;
     }
-    let on_grid = steps
-        .iter()
-        .take(2000)
-        .all(|d| ((d / q) - (d / q).round()).abs() < 1e-3);
-    if on_grid {
-        q
-    } else {
-        0.0
-    }
+    (1..=64)
+        .map(|k| m / k as f64)
+        .find(|q| {
+            steps
+                .iter()
+                .all(|d| ((d / q) - (d / q).round()).abs() < 1e-3)
+        })
+        .unwrap_or(0.0)
 }
 
 #[cfg(test)]
@@ -368,6 +370,15 @@ mod tests {
             let tt = k as f64 * 0.01 + 0.005;
             assert!((tr.angle(tt) - reversal(tt).0).abs() < 1.5 * q);
         }
+    }
+
+    #[test]
+    fn the_quantum_when_the_table_starts_with_several_counts() {
+        let q = std::f64::consts::TAU / 16_384.0;
+        let counts = [0i64, 0, 4, 13, 30, 111, 192, 273, 354];
+        let a: Vec<f64> = counts.iter().map(|c| *c as f64 * q).collect();
+        assert!((encoder_quantum(&a) - q).abs() < 1e-15);
+        assert_eq!(encoder_quantum(&[0.0, 0.1, 0.2 + 1e-4, 0.31]), 0.0);
     }
 
     #[test]

@@ -70,6 +70,9 @@ pub fn effects() -> Vec<(EffectId, Axis, f64)> {
         .collect()
 }
 
+/// Levels at which the confidences are checked on the nulls.
+pub const CALIBRATION_ALPHAS: [f64; 3] = [0.1, 0.01, 0.001];
+
 /// Multiples of the MDE.
 pub const SCALES: [f64; 4] = [0.5, 1.0, 2.0, 4.0];
 /// Multiples of the datasheet bias instability.
@@ -288,13 +291,22 @@ pub struct Study {
     pub null_runs: BTreeMap<String, usize>,
     /// Null runs with a finding other than bias instability, per grade.
     pub false_alarms: BTreeMap<String, usize>,
+    /// Per grade, each null run's strongest evidence for any effect (the
+    /// smallest adjusted tail probability, `Details::strongest_p_adjusted`):
+    /// the confidences are honest when at most a fraction `alpha` of them
+    /// fall below `alpha`.
+    pub null_strongest_p: BTreeMap<String, Vec<f64>>,
     /// Injected effect (at 2x MDE) -> first effect named ("none") -> count.
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
 }
 
+/// What a run named: effects (most significant first), look-alikes, the
+/// run's strongest evidence (adjusted tail probability).
+type Named = (Vec<String>, Vec<String>, f64);
+
 /// Effects named in a run, most significant first (bias instability
 /// dropped unless `keep_bi`), and the look-alikes the findings name.
-fn named(rec: &Recording, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), StudyError> {
+fn named(rec: &Recording, keep_bi: bool) -> Result<Named, StudyError> {
     let d = diagnose_run(rec, "study", &Options::default())?;
     let found = d
         .findings
@@ -310,7 +322,7 @@ fn named(rec: &Recording, keep_bi: bool) -> Result<(Vec<String>, Vec<String>), S
         .chain(d.unexplained.iter().filter_map(|u| u.may_be))
         .map(|e| e.as_str().to_string())
         .collect();
-    Ok((found, alike))
+    Ok((found, alike, d.details.strongest_p_adjusted))
 }
 
 /// The MDE of `effect` in grade `g`'s run.
@@ -453,7 +465,7 @@ pub fn run(
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     #[allow(clippy::type_complexity)]
-    let results: Mutex<Vec<(usize, (Vec<String>, Vec<String>))>> = Mutex::new(vec![]);
+    let results: Mutex<Vec<(usize, Named)>> = Mutex::new(vec![]);
     let failure: Mutex<Option<StudyError>> = Mutex::new(None);
     let total = jobs.len().max(1);
     std::thread::scope(|sc| {
@@ -505,7 +517,8 @@ pub fn run(
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     let mut null_runs = BTreeMap::new();
     let mut false_alarms = BTreeMap::new();
-    for (i, (found, alike)) in results {
+    let mut null_p: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    for (i, (found, alike, p_adj)) in results {
         match &jobs[i] {
             Job::Cell { cell, .. } => {
                 let c = &mut cells[*cell];
@@ -524,6 +537,7 @@ pub fn run(
             }
             Job::Null { grade, .. } => {
                 let g = grades[*grade].name.clone();
+                null_p.entry(g.clone()).or_default().push(p_adj);
                 *null_runs.entry(g.clone()).or_insert(0) += 1;
                 let fa = !found.is_empty();
                 *false_alarms.entry(g).or_insert(0) += usize::from(fa);
@@ -542,6 +556,7 @@ pub fn run(
         cells,
         null_runs,
         false_alarms,
+        null_strongest_p: null_p,
         confusion,
     })
 }
@@ -589,9 +604,21 @@ pub fn markdown(s: &Study) -> String {
         let fa = s.false_alarms.get(g).copied().unwrap_or(0);
         out += "\n(in brackets: named, or named by a finding as the look-alike it cannot be told apart from in this run)\n";
         out += &format!(
-            "\nfalse alarms on {nr} null runs: {fa} ({:.1} %)\n\n",
+            "\nfalse alarms on {nr} null runs: {fa} ({:.1} %)\n",
             100.0 * fa as f64 / nr.max(1) as f64
         );
+        if let Some(ps) = s.null_strongest_p.get(g) {
+            out += "confidence on the nulls (a finding at confidence 1 - alpha should turn up in at most alpha of them):";
+            for a in CALIBRATION_ALPHAS {
+                let k = ps.iter().filter(|p| **p < a).count();
+                out += &format!(
+                    " alpha {a}: {k} of {} ({:.1} %);",
+                    ps.len(),
+                    100.0 * k as f64 / ps.len().max(1) as f64
+                );
+            }
+            out += "\n\n";
+        }
     }
     out += "confusion (injected at 2x MDE, bias instability at 1x datasheet; nulls as `none`) -> first named, all grades:\n\n";
     for (inj, row) in &s.confusion {

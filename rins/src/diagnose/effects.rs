@@ -271,6 +271,21 @@ impl Candidate {
                 }
             }
             Kind::Encoder => {
+                // A once-per-revolution error is a 1x harmonic only over a
+                // whole revolution: on a run that never turns through one,
+                // it is one smooth function of angle among all (graduation
+                // errors, the reads' own quantisation, which repeats when a
+                // reciprocating table revisits the same angles) and the
+                // run cannot tell them apart: not excited.
+                let (lo, hi) = p
+                    .theta
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| {
+                        (l.min(t.0), h.max(t.0))
+                    });
+                if p.theta.is_empty() || hi - lo < std::f64::consts::TAU {
+                    return out;
+                }
                 // Encoder angle error e(theta) = c cos + s sin: the rate
                 // taken from it is off by de/dt = theta_dot de/dtheta, on the
                 // table axis (the gyro is right, the prediction wrong).
@@ -366,6 +381,8 @@ pub fn separate(a: EffectId, b: EffectId) -> String {
     let pair = |x: EffectId, y: EffectId| (a == x && b == y) || (a == y && b == x);
     if pair(GyroScaleNonlinearity, GyroScaleAsymmetry) {
         "run at two or more rates: a rate-squared term grows with the rate squared, an asymmetry in proportion to it".into()
+    } else if pair(GyroGSensitivity, EncoderError) {
+        "turn both ways or at two rates: an encoder error's rate error scales with the rate and flips with it, a g-sensitivity follows gravity's angle alone".into()
     } else if pair(GyroGSensitivity, GyroScaleNonlinearity) {
         "put the IMU on the table axis (no centripetal acceleration) or turn the axis horizontal so gravity alone excites the g-sensitivity".into()
     } else if pair(AxisTilt, EarthRate) {

@@ -71,7 +71,7 @@ use model::apply_known;
 use noise::Noise;
 use predict::{check, dt_of};
 use report::report;
-use select::{confirm_slow, report_stats, select, Selection};
+use select::{confirm_slow, report_stats, select, strongest_p, Selection};
 
 /// The six channels' names (recording-v1 columns).
 pub const CHANNELS: [&str; 6] = crate::allan::CHANNELS;
@@ -158,6 +158,8 @@ pub fn run(
     // Significance, look-alikes and held-out checks come from the design the
     // selection was made on; the refinement below only sharpens values.
     let judged = report_stats(&d, &sel);
+    let ids_tried = effects_tried(&d);
+    let strongest = (ids_tried as f64 * strongest_p(&d, &sel)).min(1.0);
     // Nonlinear refinement: a time offset by re-predicting with it.
     let mut time_offset = dt_known;
     for _ in 0..3 {
@@ -193,6 +195,10 @@ pub fn run(
         &judged,
         time_offset - dt_known,
     );
+    dg.details.strongest_p_adjusted = strongest;
+    for f in &mut dg.findings {
+        f.confidence = (1.0 - ids_tried as f64 * f.p_noise).max(0.0);
+    }
     for u in &unconfirmed {
         dg.unexplained.push(Unexplained {
             channels: u.channels.iter().filter_map(|c| CHANNELS.get(*c)).map(|c| (*c).to_string()).collect(),
@@ -210,6 +216,16 @@ pub fn run(
         });
     }
     Ok(dg)
+}
+
+/// The effect ids the library tried on this run, bias instability
+/// included (the multiplicity of the confidences).
+fn effects_tried(d: &Design) -> usize {
+    let mut ids: Vec<hal_sim::catalogue::EffectId> = d.cands.iter().map(|c| c.id).collect();
+    ids.push(hal_sim::catalogue::EffectId::BiasInstability);
+    ids.sort_by_key(|e| e.as_str());
+    ids.dedup();
+    ids.len()
 }
 
 /// Noise models re-fitted to the residual of a selection.

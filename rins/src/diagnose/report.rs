@@ -116,6 +116,8 @@ pub(super) fn report(
                 parameters: params,
                 delta_bic: j.dbic,
                 snr: j.snr,
+                p_noise: j.p_noise,
+                confidence: 0.0,
                 fit: j.fit.clone(),
             },
         ));
@@ -208,6 +210,8 @@ pub(super) fn report(
                     parameters: params,
                     delta_bic: dbic_sum,
                     snr: chi,
+                    p_noise: super::fisher::chi2_sf(chi * chi, 2),
+                    confidence: 0.0,
                     fit: FitFigures {
                         residual_rms_before: before,
                         residual_rms_after: after,
@@ -275,6 +279,7 @@ pub(super) fn report(
             }),
             earth_scale: p.earth_in_model_radps / p.w_e_b.norm().max(1e-300),
             unfollowed: p.track.unfollowed().to_vec(),
+            strongest_p_adjusted: 1.0,
         },
     }
 }

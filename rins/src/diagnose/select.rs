@@ -192,11 +192,19 @@ pub(super) fn params_of(f: &Fit, ci: usize) -> usize {
 pub(super) struct Judged {
     pub(super) dbic: f64,
     pub(super) snr: f64,
+    /// Chance that noise of the fitted model alone gives this much
+    /// (chi-square with the finding's degrees of freedom).
+    pub(super) p_noise: f64,
     pub(super) channels: Vec<usize>,
     pub(super) explanation: String,
     pub(super) lookalike: Option<EffectId>,
     pub(super) fit: FitFigures,
 }
+
+/// Correlation between two findings' estimates above which the run is said
+/// not to split the signal between them: 0.95 leaves a share uncertain by
+/// over three times what either alone would be (1 / sqrt(1 - 0.95^2)).
+pub const SPLIT_CORRELATION: f64 = 0.95;
 
 /// Drop-one BIC, held-out figures and look-alikes of every selected
 /// candidate.
@@ -274,11 +282,49 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
                 break;
             }
         }
+        // Look-alikes among the findings themselves: two named together
+        // whose estimates the run cannot split (a parameter of each
+        // correlated beyond 0.95 in the joint fit: the data fix their sum,
+        // not their shares), e.g. a g-sensitivity and an encoder error,
+        // both a 1x harmonic on the table-axis gyro of a one-way run.
+        if lookalike.is_none() {
+            let params = |c: usize| -> Vec<usize> {
+                f1.index
+                    .iter()
+                    .filter_map(|(k, i)| match k {
+                        Key::Effect { cand, .. } if *cand == c => Some(*i),
+                        _ => None,
+                    })
+                    .collect()
+            };
+            let mine = params(ci);
+            'other: for &cj in &sel.set {
+                if d.cands[cj].id == c.id {
+                    continue;
+                }
+                for &i in &mine {
+                    for &j in &params(cj) {
+                        let den = (f1.cov[(i, i)] * f1.cov[(j, j)]).sqrt();
+                        if den > 0.0 && (f1.cov[(i, j)] / den).abs() > SPLIT_CORRELATION {
+                            let other = d.cands[cj].id;
+                            explanation += &format!(
+                                ". It is named together with {other}, and this run cannot tell how the signal splits between them (estimates correlated {:.2}): to separate them, {}",
+                                f1.cov[(i, j)] / den,
+                                effects::separate(c.id, other)
+                            );
+                            lookalike = Some(other);
+                            break 'other;
+                        }
+                    }
+                }
+            }
+        }
         out.push((
             ci,
             Judged {
                 dbic,
                 snr: dchi.sqrt(),
+                p_noise: super::fisher::chi2_sf(dchi, k),
                 channels: chans,
                 explanation,
                 lookalike,
@@ -292,4 +338,35 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
         ));
     }
     out
+}
+
+/// The smallest chi-square tail probability of any candidate (slow ones
+/// aside) against the final model: the selected ones by dropping them, the others by adding
+/// them (the run's strongest evidence, whether or not it was named).
+pub(super) fn strongest_p(d: &Design, sel: &Selection) -> f64 {
+    let mut p_min: f64 = 1.0;
+    for ci in 0..d.cands.len() {
+        // Slow candidates are judged on long blocks (confirm_slow), not
+        // by this design's tail.
+        if d.cands[ci].is_slow() {
+            continue;
+        }
+        let (f0, f1) = if sel.set.contains(&ci) {
+            let rest: Vec<usize> = sel.set.iter().copied().filter(|x| *x != ci).collect();
+            (d.fit(&rest), sel.fit.clone())
+        } else {
+            if sel.set.iter().any(|s| d.cands[*s].id == d.cands[ci].id) {
+                continue;
+            }
+            let mut with = sel.set.clone();
+            with.push(ci);
+            (sel.fit.clone(), d.fit(&with))
+        };
+        let k = dof(d, &f1, ci);
+        if k == 0 {
+            continue;
+        }
+        p_min = p_min.min(super::fisher::chi2_sf((f0.rss_w - f1.rss_w).max(0.0), k));
+    }
+    p_min
 }

@@ -150,8 +150,17 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         }
         let _ = writeln!(
             o,
-            "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}; held-out rms {:.3e} -> {:.3e}",
-            f.delta_bic, f.snr, f.fit.heldout_rms_before, f.fit.heldout_rms_after
+            "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}, confidence {} (noise alone: p = {:.1e}, x the ids tried); held-out rms {:.3e} -> {:.3e}",
+            f.delta_bic,
+            f.snr,
+            if f.confidence >= 0.9999 {
+                "> 0.9999".to_string()
+            } else {
+                format!("{:.4}", f.confidence)
+            },
+            f.p_noise,
+            f.fit.heldout_rms_before,
+            f.fit.heldout_rms_after
         );
     }
     if !d.unexplained.is_empty() {
