@@ -272,7 +272,7 @@ fn put(m: &mut SimModel, name: &str, v: f64) {
 /// The recording minus a noise-free twin, located.
 #[derive(Clone, Debug, Default)]
 pub struct Residuals {
-    /// (part of the run, rms per channel, samples).
+    /// (part of the run, rms of the 0.2 s means per channel, blocks).
     pub by_part: Vec<(String, [f64; 6], usize)>,
     /// Amplitudes at table-angle harmonics 1..=TWIN_HARMONICS per channel
     /// (empty when the table did not turn a whole revolution).
@@ -332,15 +332,22 @@ fn residuals(rec: &Recording, twin: &Recording, part: &[usize], theta: &[f64]) -
         rms: std::array::from_fn(|ch| rms_of(&res[ch])),
         ..Residuals::default()
     };
+    // By motion on 0.2 s means (a block's part is its middle sample's): the
+    // white noise averaged down, a misfit that follows the motion left.
+    let len = ((0.2 / dt.max(1e-9)).round() as usize).max(1);
+    let bres: Vec<Vec<f64>> = res.iter().map(|r| blocks(r, len)).collect();
+    let bpart: Vec<usize> = (0..bres.first().map_or(0, |b| b.len()))
+        .map(|b| part.get(b * len + len / 2).copied().unwrap_or(0))
+        .collect();
     for (li, label) in PART_LABELS.iter().enumerate() {
-        let idx: Vec<usize> = (0..part.len()).filter(|r| part[*r] == li).collect();
+        let idx: Vec<usize> = (0..bpart.len()).filter(|b| bpart[*b] == li).collect();
         if idx.is_empty() {
             continue;
         }
         let v: [f64; 6] = std::array::from_fn(|ch| {
             rms_of(
                 &idx.iter()
-                    .filter_map(|r| res[ch].get(*r).copied())
+                    .filter_map(|b| bres[ch].get(*b).copied())
                     .collect::<Vec<_>>(),
             )
         });
@@ -493,17 +500,17 @@ pub fn text(r: &TwinReport) -> String {
         TWIN_SEEDS, CLOSENESS_BLOCK_S
     ));
     s.push_str(&format!(
-        "  {:<28} {}  worst  verdict\n",
+        "  {:<34} {}  worst  verdict\n",
         "twin",
-        CHANNELS.map(|c| format!("{c:>8}")).join("")
+        CHANNELS.map(|c| format!("{c:>13}")).join("")
     ));
     for run in &r.runs {
         let ratio = run.closeness.ratio();
         let (wc, w) = run.closeness.worst();
         s.push_str(&format!(
-            "  {:<28} {}  {:>5.2}  {}\n",
+            "  {:<34} {}  {:>5.2}  {}\n",
             run.label,
-            ratio.map(|x| format!("{x:>8.2}")).join(""),
+            ratio.map(|x| format!("{x:>13.2}")).join(""),
             w,
             if w <= GOOD_RATIO {
                 let (lc, lo) = ratio
@@ -529,7 +536,7 @@ pub fn text(r: &TwinReport) -> String {
     s.push_str(&format!(
         "  (recording-to-twin over twin-to-twin rms of 1 s means; good at <= {GOOD_RATIO})\n"
     ));
-    s.push_str("  residual rms against the noise-free twin, by motion (deg/h gyro, ug accel):\n");
+    s.push_str("  the recording minus the noise-free twin, rms of 0.2 s means by motion (deg/h gyro, ug accel):\n");
     let eng = |ch: usize, v: f64| {
         if ch < 3 {
             v.to_degrees() * 3600.0
@@ -540,7 +547,7 @@ pub fn text(r: &TwinReport) -> String {
     for run in &r.runs {
         for (k, (label, v, n)) in run.residuals.by_part.iter().enumerate() {
             s.push_str(&format!(
-                "    {:<28} {:<14} {} ({n} samples)\n",
+                "    {:<34} {:<14} {} ({n} blocks)\n",
                 if k == 0 { run.label.as_str() } else { "" },
                 label,
                 (0..6)
@@ -550,7 +557,7 @@ pub fn text(r: &TwinReport) -> String {
         }
         if let Some(h1) = run.residuals.harmonics.first() {
             s.push_str(&format!(
-                "    {:<28} {:<14} {}\n",
+                "    {:<34} {:<14} {}\n",
                 "",
                 "1x harmonic",
                 (0..6)
