@@ -63,6 +63,7 @@ pub mod calib;
 pub mod control;
 pub mod earth;
 pub mod error;
+pub mod eskf;
 pub mod multipos;
 pub mod real;
 pub mod scheme;

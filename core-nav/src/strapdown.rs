@@ -207,6 +207,39 @@ impl<T: Real> Strapdown<T> {
         self.earth.at(&self.state.p_n)
     }
 
+    /// Applies an aiding filter's correction (closed loop): `dp` added to
+    /// the position offsets (m), `dv` to the velocity (m/s), and the
+    /// attitude turned by the small rotation `phi` in `n` (rad):
+    /// `c_s_n <- (I + [phi x]) c_s_n` (`eskf`'s error convention). The
+    /// specific force the velocity rule remembers turns with it.
+    ///
+    /// # Errors
+    /// [`NavError::NonFiniteSample`] when a correction is not finite (the
+    /// state is then unchanged).
+    pub fn correct(
+        &mut self,
+        dp: &Vector3<T>,
+        dv: &Vector3<T>,
+        phi: &Vector3<T>,
+    ) -> Result<(), NavError> {
+        if !(dp
+            .iter()
+            .chain(dv.iter())
+            .chain(phi.iter())
+            .all(|x| x.is_finite()))
+        {
+            return Err(NavError::NonFiniteSample);
+        }
+        let dq = crate::attitude::rotvec_to_quat(phi);
+        let q = dq * self.state.q_s_n;
+        self.state.q_s_n = q / q.norm();
+        self.q_comp = Quaternion::new(T::zero(), T::zero(), T::zero(), T::zero());
+        self.f_n_prev = rotate(&dq, &self.f_n_prev);
+        self.state.v_n += dv;
+        self.state.p_n += dp;
+        Ok(())
+    }
+
     /// One strapdown step `k-1 -> k` with the sample at `t_k`. Attitude,
     /// then velocity, then position (see the module docs). On error the state
     /// is unchanged and the sample is not used.
