@@ -54,8 +54,11 @@ pub struct Finding {
     pub delta_bic: f64,
     /// The finding's amplitude over its standard error.
     pub snr: f64,
+    /// Its degrees of freedom (fitted and searched parameters).
+    pub dof: usize,
     /// Chance that the fitted noise model alone gives this much evidence
-    /// for this one effect (chi-square tail with its degrees of freedom).
+    /// for this one effect: chi-square tail with `dof` degrees of freedom
+    /// of `snr^2` over the largest dispersion of its channels.
     pub p_noise: f64,
     /// Confidence that the effect is there: `1 - m p_noise` (at least 0),
     /// `m` the effect ids the library tried (Bonferroni): on runs without
@@ -178,6 +181,12 @@ pub struct Details {
     /// runs without an effect it is below `alpha` in at most `alpha` of
     /// them if the confidences mean what they say.
     pub strongest_p_adjusted: f64,
+    /// The effect that evidence is for.
+    pub strongest_effect: Option<EffectId>,
+    /// Dispersion of the whitened final residual per channel (its long-run
+    /// variance over its variance, at least 1: `locate::dispersion`): the
+    /// confidences divide the evidence by it.
+    pub dispersion: Vec<f64>,
     /// Intervals between encoder reads (start, end, s) the prediction cannot
     /// follow the table through (hal-sim's `EncoderTrack::unfollowed`).
     pub unfollowed: Vec<(f64, f64)>,

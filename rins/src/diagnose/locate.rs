@@ -242,6 +242,26 @@ pub fn ljung_box(w: &[f64], lags: usize) -> (f64, usize) {
     (n as f64 * (n as f64 + 2.0) * q, lags)
 }
 
+/// Dispersion of a whitened series: its long-run variance over its
+/// variance, `1 + 2 sum_k (1 - k / (L + 1)) rho_k` (Bartlett weights, `L`
+/// lags; Newey and West 1987), at least 1. A white series gives 1; a series
+/// the noise model leaves coloured gives more, and the evidence of a slow
+/// regressor fitted on it is worth that many times less (quasi-likelihood).
+pub fn dispersion(w: &[f64], lags: usize) -> f64 {
+    let n = w.len();
+    if n <= lags + 1 {
+        return 1.0;
+    }
+    let mean = w.iter().sum::<f64>() / n as f64;
+    let c0: f64 = w.iter().map(|x| (x - mean).powi(2)).sum();
+    let mut lr = 1.0;
+    for h in 1..=lags {
+        let ch: f64 = (h..n).map(|i| (w[i] - mean) * (w[i - h] - mean)).sum();
+        lr += 2.0 * (1.0 - h as f64 / (lags as f64 + 1.0)) * ch / c0.max(1e-300);
+    }
+    lr.max(1.0)
+}
+
 /// Residual sum of squares of `y` on the columns `x` (least squares).
 fn resid_ss(x: &[DVector<f64>], y: &DVector<f64>) -> f64 {
     let m = x.len();

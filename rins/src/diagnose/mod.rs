@@ -159,7 +159,7 @@ pub fn run(
     // selection was made on; the refinement below only sharpens values.
     let judged = report_stats(&d, &sel);
     let ids_tried = effects_tried(&d);
-    let strongest = (ids_tried as f64 * strongest_p(&d, &sel)).min(1.0);
+
     // Nonlinear refinement: a time offset by re-predicting with it.
     let mut time_offset = dt_known;
     for _ in 0..3 {
@@ -195,10 +195,22 @@ pub fn run(
         &judged,
         time_offset - dt_known,
     );
-    dg.details.strongest_p_adjusted = strongest;
+    // Confidences: the evidence over the dispersion the final residual
+    // shows on the finding's channels (quasi-likelihood), x the ids tried.
+    let disp = dg.details.dispersion.clone();
+    let phi_of = |chans: &[usize]| {
+        chans
+            .iter()
+            .filter_map(|c| disp.get(*c).copied())
+            .fold(1.0, f64::max)
+    };
     for f in &mut dg.findings {
+        f.p_noise = fisher::chi2_sf(f.snr * f.snr / phi_of(&f.channels), f.dof);
         f.confidence = (1.0 - ids_tried as f64 * f.p_noise).max(0.0);
     }
+    let (p_min, which) = strongest_p(&d, &sel, &disp);
+    dg.details.strongest_p_adjusted = (ids_tried as f64 * p_min).min(1.0);
+    dg.details.strongest_effect = which;
     for u in &unconfirmed {
         dg.unexplained.push(Unexplained {
             channels: u.channels.iter().filter_map(|c| CHANNELS.get(*c)).map(|c| (*c).to_string()).collect(),

@@ -12,6 +12,11 @@ use super::{
 };
 use hal_sim::catalogue::EffectId;
 
+/// Lags of the dispersion estimate: 50 blocks (10 s at 0.2 s), the time
+/// over which the slow regressors change and the encoder grid's beat with
+/// the block rate builds its sawtooth.
+const DISPERSION_LAGS: usize = 50;
+
 /// The samples the model `fit` re-simulates, per channel: the ideal sensor,
 /// the nominal terms, every effect of `fit` and the model's known effects
 /// (channel unit, per IMU sample).
@@ -116,7 +121,8 @@ pub(super) fn report(
                 parameters: params,
                 delta_bic: j.dbic,
                 snr: j.snr,
-                p_noise: j.p_noise,
+                dof: j.k,
+                p_noise: 1.0,
                 confidence: 0.0,
                 fit: j.fit.clone(),
             },
@@ -129,6 +135,7 @@ pub(super) fn report(
     let len = ((block_s / dt).round() as usize).max(1);
     let mut noise_final = vec![];
     let mut whiteness = vec![];
+    let mut dispersion = vec![];
     let fits: Vec<(Vec<f64>, Noise, Noise)> = std::thread::scope(|sc| {
         let one = |ch: usize| {
             let z = d.block_residual(&sel.fit, ch);
@@ -154,6 +161,7 @@ pub(super) fn report(
             let mut wz = vec![];
             gm.gains(z.len()).whiten_into(z, &mut wz);
             whiteness.push(locate::ljung_box(&wz, 20));
+            dispersion.push(locate::dispersion(&wz, DISPERSION_LAGS));
             let dll = gm.loglik - wn.loglik;
             let dbic = -2.0 * dll + 2.0 * (z.len().max(2) as f64).ln();
             if dbic >= -BIC_MARGIN || gm.lambda <= 0.0 {
@@ -210,7 +218,8 @@ pub(super) fn report(
                     parameters: params,
                     delta_bic: dbic_sum,
                     snr: chi,
-                    p_noise: super::fisher::chi2_sf(chi * chi, 2),
+                    dof: 2,
+                    p_noise: 1.0,
                     confidence: 0.0,
                     fit: FitFigures {
                         residual_rms_before: before,
@@ -280,6 +289,8 @@ pub(super) fn report(
             earth_scale: p.earth_in_model_radps / p.w_e_b.norm().max(1e-300),
             unfollowed: p.track.unfollowed().to_vec(),
             strongest_p_adjusted: 1.0,
+            strongest_effect: None,
+            dispersion,
         },
     }
 }

@@ -192,9 +192,8 @@ pub(super) fn params_of(f: &Fit, ci: usize) -> usize {
 pub(super) struct Judged {
     pub(super) dbic: f64,
     pub(super) snr: f64,
-    /// Chance that noise of the fitted model alone gives this much
-    /// (chi-square with the finding's degrees of freedom).
-    pub(super) p_noise: f64,
+    /// Degrees of freedom.
+    pub(super) k: usize,
     pub(super) channels: Vec<usize>,
     pub(super) explanation: String,
     pub(super) lookalike: Option<EffectId>,
@@ -324,7 +323,7 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             Judged {
                 dbic,
                 snr: dchi.sqrt(),
-                p_noise: super::fisher::chi2_sf(dchi, k),
+                k,
                 channels: chans,
                 explanation,
                 lookalike,
@@ -343,8 +342,13 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
 /// The smallest chi-square tail probability of any candidate (slow ones
 /// aside) against the final model: the selected ones by dropping them, the others by adding
 /// them (the run's strongest evidence, whether or not it was named).
-pub(super) fn strongest_p(d: &Design, sel: &Selection) -> f64 {
+pub(super) fn strongest_p(
+    d: &Design,
+    sel: &Selection,
+    dispersion: &[f64],
+) -> (f64, Option<hal_sim::catalogue::EffectId>) {
     let mut p_min: f64 = 1.0;
+    let mut which = None;
     for ci in 0..d.cands.len() {
         // Slow candidates are judged on long blocks (confirm_slow), not
         // by this design's tail.
@@ -366,7 +370,27 @@ pub(super) fn strongest_p(d: &Design, sel: &Selection) -> f64 {
         if k == 0 {
             continue;
         }
-        p_min = p_min.min(super::fisher::chi2_sf((f0.rss_w - f1.rss_w).max(0.0), k));
+        let phi = channels_of(d, ci)
+            .iter()
+            .filter_map(|c| dispersion.get(*c).copied())
+            .fold(1.0, f64::max);
+        let p = super::fisher::chi2_sf((f0.rss_w - f1.rss_w).max(0.0) / phi, k);
+        if p < p_min {
+            p_min = p;
+            which = Some(d.cands[ci].id);
+        }
     }
-    p_min
+    (p_min, which)
+}
+
+/// The channels candidate `ci` has regressors on.
+pub(super) fn channels_of(d: &Design, ci: usize) -> Vec<usize> {
+    (0..d.ch.len())
+        .filter(|ch| {
+            d.ch[*ch]
+                .owners
+                .iter()
+                .any(|o| matches!(o, Owner::Effect { cand, .. } if *cand == ci))
+        })
+        .collect()
 }
