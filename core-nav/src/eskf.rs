@@ -1,14 +1,23 @@
 //! Error-state Kalman filter for the aided INS (loosely coupled GNSS,
 //! zero-velocity updates), `no_std`, fixed-size, generic over the float.
 //!
-//! # Error state (15)
+//! # Error state (19)
 //!
-//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3)]`, each **truth minus
-//! estimate**: `dp` the position error in `n` (north, east, down, m; the
+//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3), dsk, dgp (3)]`, each
+//! **truth minus estimate**: `dp` the position error in `n` (north, east, down, m; the
 //! curvilinear offsets of [`crate::strapdown::NavState::p_n`]), `dv` the
 //! velocity error (NED, m/s), `phi` the attitude error as a small rotation in
 //! `n` (`c_s_n,true = (I + [phi x]) c_s_n,est`, rad), `dbg`, `dba` the gyro
-//! and accelerometer bias errors in `s` (rad/s, m/s^2).
+//! and accelerometer bias errors in `s` (rad/s, m/s^2), `dsk` the scale
+//! error of the gyro along the table axis `k` (1). The rotation makes the
+//! biases across the axis sinusoids in `n` that average out; what it cannot
+//! modulate is the gyro along its own axis, and there the table's rate
+//! times a scale error is a heading drift (30 deg/s x 3e-3 = 5 deg/min):
+//! the filter estimates it while fixes arrive (the encoder gives the rate).
+//! `dgp` is the receiver's slowly varying position error (NED, m): GNSS
+//! errors (multipath, atmosphere) are correlated over a minute, and a
+//! filter that takes every fix as independent averages them down to a
+//! confidence it does not have.
 //!
 //! # Dynamics (Groves 2nd ed. Sec. 14.2.4, local-navigation frame, the
 //! small terms of gravity and transport-rate errors left out)
@@ -16,8 +25,10 @@
 //! ```text
 //! dp'  = dv
 //! dv'  = -[f_n x] phi - (2 w_ie_n + w_en_n) x dv - c_s_n dba - c_s_n n_a
-//! phi' = -w_in_n x phi - c_s_n dbg - c_s_n n_g
+//! phi' = -w_in_n x phi - c_s_n dbg - c_s_n k (k . w_is_s) dsk - c_s_n n_g
 //! dbg' = -dbg / tau_g + w_g,   dba' = -dba / tau_a + w_a   (Gauss-Markov)
+//! dsk' = 0
+//! dgp' = -dgp / tau_gnss + w_gp
 //! ```
 //!
 //! discretised as `Phi = I + F T + (F T)^2 / 2`, `Q_d` from the white noise
@@ -38,7 +49,8 @@
 //! silently.
 //!
 //! - GNSS position of the antenna at `l_n = c_b_n l_b` from the table's
-//!   centre: `z = p_gnss - (p + l_n) = dp - [l_n x] phi`.
+//!   centre, the receiver's error estimate `b` taken out: `z = p_gnss - (p
+//!   + l_n) - b = dp - [l_n x] phi + dgp + v`, `v` the white part.
 //! - GNSS velocity: `z = v_gnss - v = dv` (the lever arm's rotation term
 //!   `c_b_n (w_nb_b x l_b)`, at most 3 cm/s at 30 deg/s of yaw on a 1 m arm,
 //!   is added to the measurement by the caller).
@@ -51,7 +63,7 @@ use crate::real::Real;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 15;
+pub const N: usize = 19;
 /// Index of `dp` in the error state.
 pub const I_P: usize = 0;
 /// Index of `dv`.
@@ -62,6 +74,10 @@ pub const I_PHI: usize = 6;
 pub const I_BG: usize = 9;
 /// Index of `dba`.
 pub const I_BA: usize = 12;
+/// Index of `dsk`, the table-axis gyro's scale error.
+pub const I_SK: usize = 15;
+/// Index of `dgp`, the receiver's correlated position error (NED).
+pub const I_GP: usize = 16;
 
 /// Covariance of the error state.
 pub type Cov<T> = SMatrix<T, N, N>;
@@ -85,6 +101,13 @@ pub struct EskfConfig {
     pub accel_bias_tau_s: f64,
     /// Innovation gate per component, in sigmas of its predicted spread.
     pub gate_sigma: f64,
+    /// Initial 1-sigma of the table-axis gyro's scale error (1).
+    pub table_scale_sigma: f64,
+    /// The receiver's correlated position error: stationary 1-sigma,
+    /// horizontal and vertical (m), and its correlation time (s).
+    pub gnss_corr_sigma_m: [f64; 2],
+    /// See `gnss_corr_sigma_m`, s.
+    pub gnss_corr_tau_s: f64,
 }
 
 /// The initial uncertainty, 1-sigma per block.
@@ -132,6 +155,14 @@ pub struct Eskf<T: Real> {
     pub bias_g: Vector3<T>,
     /// Accelerometer bias estimate in `s`, m/s^2.
     pub bias_a: Vector3<T>,
+    /// Scale error estimate of the gyro along the table axis (1): correct
+    /// a sample by `w - bias_g - k (k . w) scale_k` ([`Self::correct_gyro`]).
+    pub scale_k: T,
+    /// The table axis in `s` (unit).
+    pub axis_s: Vector3<T>,
+    /// Estimate of the receiver's correlated position error, NED, m
+    /// (decays with its correlation time between fixes).
+    pub gnss_bias: Vector3<T>,
     cfg: EskfConfig,
     /// Measurement components rejected by the gate so far.
     pub rejected: u32,
@@ -141,8 +172,8 @@ pub struct Eskf<T: Real> {
 
 impl<T: Real> Eskf<T> {
     /// A filter with diagonal initial covariance (biases at their
-    /// stationary sigma).
-    pub fn new(cfg: EskfConfig, init: &InitialSigma) -> Self {
+    /// stationary sigma), for a table turning about `axis_s` (unit, in `s`).
+    pub fn new(cfg: EskfConfig, init: &InitialSigma, axis_s: Vector3<T>) -> Self {
         let mut d = State::<T>::zeros();
         let block = |d: &mut State<T>, i: usize, v: Vector3<f64>| {
             d.fixed_rows_mut::<3>(i)
@@ -157,12 +188,20 @@ impl<T: Real> Eskf<T> {
         );
         block(&mut d, I_BG, Vector3::repeat(cfg.gyro_bias_sigma));
         block(&mut d, I_BA, Vector3::repeat(cfg.accel_bias_sigma));
+        if let Some(x) = d.get_mut(I_SK) {
+            *x = T::lit(cfg.table_scale_sigma * cfg.table_scale_sigma);
+        }
+        let [gh, gv] = cfg.gnss_corr_sigma_m;
+        block(&mut d, I_GP, Vector3::new(gh, gh, gv));
         let p = Cov::<T>::from_diagonal(&d);
         Self {
             p,
             dx: State::zeros(),
             bias_g: Vector3::zeros(),
             bias_a: Vector3::zeros(),
+            scale_k: T::zero(),
+            axis_s,
+            gnss_bias: Vector3::zeros(),
             cfg,
             rejected: 0,
             refused: 0,
@@ -171,13 +210,14 @@ impl<T: Real> Eskf<T> {
 
     /// The continuous-time system matrix at the current state: `c_s_n`,
     /// the specific force in `n` (m/s^2), the earth and transport rates in
-    /// `n` (rad/s).
+    /// `n` (rad/s), the (corrected) gyro sample in `s` (rad/s).
     pub fn system(
         &self,
         c_s_n: &Matrix3<T>,
         f_n: &Vector3<T>,
         w_ie_n: &Vector3<T>,
         w_en_n: &Vector3<T>,
+        w_is_s: &Vector3<T>,
     ) -> Cov<T> {
         let mut f = Cov::<T>::zeros();
         let put = |f: &mut Cov<T>, r: usize, c: usize, m: &Matrix3<T>| {
@@ -189,6 +229,8 @@ impl<T: Real> Eskf<T> {
         put(&mut f, I_V, I_BA, &(-c_s_n));
         put(&mut f, I_PHI, I_PHI, &(-skew(&(w_ie_n + w_en_n))));
         put(&mut f, I_PHI, I_BG, &(-c_s_n));
+        let col = -(c_s_n * self.axis_s) * self.axis_s.dot(w_is_s);
+        f.fixed_view_mut::<3, 1>(I_PHI, I_SK).copy_from(&col);
         let gm = |tau: f64| {
             if tau > 0.0 {
                 Matrix3::identity() * T::lit(-1.0 / tau)
@@ -198,6 +240,7 @@ impl<T: Real> Eskf<T> {
         };
         put(&mut f, I_BG, I_BG, &gm(self.cfg.gyro_bias_tau_s));
         put(&mut f, I_BA, I_BA, &gm(self.cfg.accel_bias_tau_s));
+        put(&mut f, I_GP, I_GP, &gm(self.cfg.gnss_corr_tau_s));
         f
     }
 
@@ -209,9 +252,10 @@ impl<T: Real> Eskf<T> {
         f_n: &Vector3<T>,
         w_ie_n: &Vector3<T>,
         w_en_n: &Vector3<T>,
+        w_is_s: &Vector3<T>,
         dt_s: T,
     ) {
-        let ft = self.system(c_s_n, f_n, w_ie_n, w_en_n) * dt_s;
+        let ft = self.system(c_s_n, f_n, w_ie_n, w_en_n, w_is_s) * dt_s;
         let phi = Cov::<T>::identity() + ft + ft * ft * T::lit(0.5);
         let bias_q = |sigma: f64, tau: f64| {
             if tau > 0.0 {
@@ -231,9 +275,20 @@ impl<T: Real> Eskf<T> {
             qd.fixed_rows_mut::<3>(i)
                 .copy_from(&Vector3::repeat(T::lit(q) * dt_s));
         }
+        let [gh, gv] = c.gnss_corr_sigma_m;
+        qd.fixed_rows_mut::<3>(I_GP).copy_from(&Vector3::new(
+            T::lit(bias_q(gh, c.gnss_corr_tau_s)) * dt_s,
+            T::lit(bias_q(gh, c.gnss_corr_tau_s)) * dt_s,
+            T::lit(bias_q(gv, c.gnss_corr_tau_s)) * dt_s,
+        ));
         let p = phi * self.p * phi.transpose() + Cov::<T>::from_diagonal(&qd);
-        // The error estimate propagates too (it is zero in closed loop).
+        // The error estimate propagates too (it is zero in closed loop), and
+        // the receiver error's estimate decays.
         self.dx = phi * self.dx;
+        if self.cfg.gnss_corr_tau_s > 0.0 {
+            let decay = T::one() - dt_s * T::lit(1.0 / self.cfg.gnss_corr_tau_s);
+            self.gnss_bias *= decay.max(T::zero());
+        }
         self.p = (p + p.transpose()) * T::lit(0.5);
     }
 
@@ -298,7 +353,8 @@ impl<T: Real> Eskf<T> {
 
     /// GNSS position of the antenna: `z = p_gnss - (p + l_n)` (NED
     /// offsets, m), the antenna at `l_n` from the table's centre (m, in
-    /// `n`), the receiver's 1-sigma per axis (m).
+    /// `n`), the 1-sigma per axis of the fix's white error (m; the
+    /// correlated part is the `dgp` state).
     ///
     /// # Errors
     /// Non-finite input, a sigma not positive.
@@ -309,10 +365,13 @@ impl<T: Real> Eskf<T> {
         sigma: &Vector3<T>,
     ) -> Result<UpdateReport<T>, FilterError> {
         let lx = -skew(l_n);
+        let z = z - self.gnss_bias;
+        let z = &z;
         let mut rows = [State::<T>::zeros(); 3];
         for (i, (h, lrow)) in rows.iter_mut().zip(lx.row_iter()).enumerate() {
             h.fixed_rows_mut::<3>(I_P).copy_from(&unit(i));
             h.fixed_rows_mut::<3>(I_PHI).copy_from(&lrow.transpose());
+            h.fixed_rows_mut::<3>(I_GP).copy_from(&unit::<T>(i));
         }
         self.update_rows(rows, z, sigma)
     }
@@ -343,8 +402,24 @@ impl<T: Real> Eskf<T> {
         let out = (v(I_P), v(I_V), v(I_PHI));
         self.bias_g += v(I_BG);
         self.bias_a += v(I_BA);
+        if let Some(x) = self.dx.get(I_SK) {
+            self.scale_k += *x;
+        }
+        self.gnss_bias += v(I_GP);
         self.dx = State::zeros();
         out
+    }
+
+    /// A raw gyro sample corrected by the estimates: `w - bias_g - k (k . w)
+    /// scale_k`, rad/s in `s`.
+    pub fn correct_gyro(&self, w_is_s: &Vector3<T>) -> Vector3<T> {
+        let w = w_is_s - self.bias_g;
+        w - self.axis_s * (self.axis_s.dot(&w) * self.scale_k)
+    }
+
+    /// A raw accelerometer sample corrected by the estimate, m/s^2 in `s`.
+    pub fn correct_accel(&self, f_s: &Vector3<T>) -> Vector3<T> {
+        f_s - self.bias_a
     }
 
     /// 1-sigma of error-state component `i` (its unit).

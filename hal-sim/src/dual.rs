@@ -83,6 +83,7 @@ pub fn simulate_gimbals(
     let c_b_n = quat_to_dcm(&euler_to_quat(&Euler::<f64>::default()));
     let n = (duration_s * rate_hz).floor() as usize + 1;
     let mut rec = Recording {
+        moving: None,
         meta: Meta {
             description: Some(format!(
                 "dual-axis simulation, imu {}, seed {seed}",

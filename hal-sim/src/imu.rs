@@ -132,7 +132,16 @@ impl ImuSpec {
         })
     }
 
-    /// Names of the profiles.
+    /// The profile whose `model` text is `model` (a simulated recording's
+    /// `[imu] model`), or whose name it is.
+    pub fn by_model(model: &str) -> Option<Self> {
+        Self::NAMES
+            .iter()
+            .filter_map(|n| Self::by_name(n))
+            .find(|p| p.model == model || p.name == model)
+    }
+
+    /// Profile names.
     pub const NAMES: [&'static str; 5] = ["ideal", "mtig", "nav440", "adis16405", "icm42688"];
 
     /// No error at all.

@@ -135,6 +135,8 @@ pub struct Recording {
     pub imu: Vec<ImuRow>,
     /// `table.csv` rows, time increasing.
     pub table: Vec<TableRow>,
+    /// The moving-base keys and files (`[base] moving = true`), if any.
+    pub moving: Option<crate::moving::MovingBase>,
 }
 
 /// What went wrong reading or writing a recording: the file, the line (1-based)
@@ -180,7 +182,23 @@ impl Recording {
         let imu = parse_imu(&read_text(&imu_path)?, &imu_path)?;
         let table_path = dir.join("table.csv");
         let table = parse_table(&read_text(&table_path)?, &table_path)?;
-        Ok(Self { meta, imu, table })
+        let mut moving = crate::moving::parse_meta(&read_text(&meta_path)?, &meta_path)?;
+        if let Some(m) = moving.as_mut() {
+            let g = dir.join("gnss.csv");
+            if g.exists() {
+                m.gnss = Some(crate::moving::parse_gnss(&read_text(&g)?, &g)?);
+            }
+            let t = dir.join("truth.csv");
+            if t.exists() {
+                m.truth = Some(crate::moving::parse_truth(&read_text(&t)?, &t)?);
+            }
+        }
+        Ok(Self {
+            meta,
+            imu,
+            table,
+            moving,
+        })
     }
 
     /// Writes the recording into `dir` (created if missing). Refuses to
@@ -190,11 +208,20 @@ impl Recording {
     /// A [`RecordingError`] when a file exists already or cannot be written.
     pub fn write(&self, dir: &Path) -> Result<(), RecordingError> {
         fs::create_dir_all(dir).map_err(|e| err(dir, None, format!("cannot create: {e}")))?;
-        for (name, text) in [
+        let mut files = vec![
             ("meta.toml", self.meta_text()),
             ("imu.csv", self.imu_text()),
             ("table.csv", self.table_text()),
-        ] {
+        ];
+        if let Some(m) = &self.moving {
+            if let Some(g) = &m.gnss {
+                files.push(("gnss.csv", crate::moving::gnss_text(g)));
+            }
+            if let Some(t) = &m.truth {
+                files.push(("truth.csv", crate::moving::truth_text(t)));
+            }
+        }
+        for (name, text) in files {
             let p = dir.join(name);
             if p.exists() {
                 return Err(err(
@@ -223,7 +250,14 @@ impl Recording {
         if let Some(g) = m.gravity_mps2 {
             out!(s, "gravity_mps2 = {}\n", toml_f64(g));
         }
+        let (mv_site, mv_base, mv_gnss) = self
+            .moving
+            .as_ref()
+            .map(crate::moving::meta_lines)
+            .unwrap_or_default();
+        s.push_str(&mv_site);
         out!(s, "\n[base]\n");
+        s.push_str(&mv_base);
         out!(s, "heading_deg = {}\n", toml_f64(m.heading_deg));
         out!(s, "pitch_deg = {}\n", toml_f64(m.pitch_deg));
         out!(s, "roll_deg = {}\n", toml_f64(m.roll_deg));
@@ -238,6 +272,7 @@ impl Recording {
         out!(s, "\n[table]\n");
         out!(s, "axis = {}\n", q(axis_name(m.axis)));
         out!(s, "encoder_rate_hz = {}\n", toml_f64(m.encoder_rate_hz));
+        s.push_str(&mv_gnss);
         s
     }
 
@@ -519,6 +554,42 @@ fn check_time(path: &Path, line: usize, prev: Option<f64>, t: f64) -> Result<(),
         }
     }
     Ok(())
+}
+
+/// Parses a CSV of numbers with every one of `cols` required (any order,
+/// extra columns ignored), the first being time, increasing: each row's
+/// line and its values in the order of `cols`.
+///
+/// # Errors
+/// A missing column, a bad row, a non-number, time not increasing.
+pub(crate) fn parse_columns(
+    text: &str,
+    path: &Path,
+    cols: &[&str],
+) -> Result<Vec<(usize, Vec<f64>)>, RecordingError> {
+    let (mut csv, idx) = Csv::open(text, path, cols)?;
+    let mut at = Vec::with_capacity(cols.len());
+    for (k, name) in cols.iter().enumerate() {
+        at.push(
+            idx.get(k)
+                .copied()
+                .flatten()
+                .ok_or_else(|| err(path, Some(1), format!("missing column {name}")))?,
+        );
+    }
+    let mut rows = vec![];
+    let mut prev = None;
+    while let Some(line) = csv.next_row()? {
+        let mut v = Vec::with_capacity(cols.len());
+        for (c, name) in at.iter().zip(cols) {
+            v.push(csv.num(*c, name, line)?);
+        }
+        let t = v.first().copied().unwrap_or(0.0);
+        check_time(path, line, prev, t)?;
+        prev = Some(t);
+        rows.push((line, v));
+    }
+    Ok(rows)
 }
 
 /// The `imu.csv` columns: time, the six channels (rad/s, m/s^2), temperature.

@@ -7,7 +7,9 @@
 //! `t - encoder latency`, quantised to whole counts (not in `ideal`).
 
 use crate::catalogue::EffectId;
+use crate::drive::{Drive, DriveKind, GnssSpec, Receiver, Vehicle, VehicleState};
 use crate::imu::{ImuModel, ImuSpec};
+use crate::moving::{GnssMeta, GnssRow, MovingBase, TruthRow};
 use crate::recording::{ImuRow, Meta, Recording, TableRow};
 use crate::rng::Rng;
 use crate::world::{
@@ -64,6 +66,19 @@ pub struct SimConfig {
     /// Deterministic gyro bias temperature coefficient, rad/s per degC, all
     /// axes (replaces the profile's random draw).
     pub temp_bias_override: Option<f64>,
+    /// A vehicle under the table (moving base; `None`: a static base).
+    pub drive: Option<DriveSpec>,
+}
+
+/// The vehicle the table rides on and its GNSS receiver.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DriveSpec {
+    /// City or highway.
+    pub kind: DriveKind,
+    /// The receiver (its rate, antenna, noise, outages).
+    pub gnss: GnssSpec,
+    /// Longitude of the start, deg.
+    pub longitude_deg: f64,
 }
 
 impl SimConfig {
@@ -88,6 +103,7 @@ impl SimConfig {
             g_sens_override: None,
             g_sens_matrix: None,
             temp_bias_override: None,
+            drive: None,
         }
     }
 
@@ -498,6 +514,27 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         geometry: cfg.geometry,
         bump: cfg.bump,
     };
+    // A moving base: the vehicle (its attitude at t = 0 is the base's),
+    // its receiver, its true motion per IMU sample.
+    let origin = core_nav::earth::GeoPoint::from_deg(
+        cfg.site.lat_deg,
+        cfg.drive.as_ref().map_or(0.0, |d| d.longitude_deg),
+        cfg.site.origin.height_m,
+    );
+    let mut vehicle = cfg.drive.as_ref().map(|d| {
+        Vehicle::new(
+            Drive::plan(d.kind, cfg.duration_s, cfg.seed),
+            origin,
+            heading_deg,
+        )
+    });
+    let mut receiver = cfg
+        .drive
+        .as_ref()
+        .map(|d| Receiver::new(d.gnss.clone(), cfg.seed));
+    let mut veh_hist: VecDeque<VehicleState> = VecDeque::with_capacity(2_000);
+    let (mut gnss_rows, mut truth_rows) = (vec![], vec![]);
+    let mut k_gnss = 1u64;
     let mut jitter = Rng::new(cfg.seed, 3);
     let mut table = Table::new(cfg.motor.clone());
     let mut servo = Servo::for_motor(&cfg.motor);
@@ -509,6 +546,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let n_imu = (cfg.duration_s * cfg.imu_rate_hz).floor() as u64 + 1;
     let n_enc = (cfg.duration_s * cfg.encoder_rate_hz).floor() as u64 + 1;
     let mut rec = Recording {
+        moving: None,
         meta: Meta {
             description: Some(format!(
                 "rins simulate: imu {}, scheme {:?}, static {} s, seed {}{}",
@@ -545,6 +583,33 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let mut last_report = 0u64;
     for tick in 0..=n_ticks {
         let t = tick as f64 * PHYS_DT;
+        if let Some(v) = vehicle.as_mut() {
+            if tick > 0 {
+                v.step(PHYS_DT);
+            }
+            if veh_hist.len() == 2_000 {
+                veh_hist.pop_front();
+            }
+            veh_hist.push_back(*v.state());
+            if let (Some(r), Some(d)) = (receiver.as_mut(), cfg.drive.as_ref()) {
+                let t_fix = k_gnss as f64 / d.gnss.rate_hz;
+                if t + 0.5 * PHYS_DT >= t_fix && t_fix <= cfg.duration_s {
+                    k_gnss += 1;
+                    if let Some(f) = r.fix(v.state()) {
+                        gnss_rows.push(GnssRow {
+                            t_s: t_fix,
+                            lat_deg: f.pos.lat_rad.to_degrees(),
+                            lon_deg: f.pos.lon_rad.to_degrees(),
+                            height_m: f.pos.height_m,
+                            v_n_mps: [f.v_n.x, f.v_n.y, f.v_n.z],
+                            sigma_h_m: f.sigma[0],
+                            sigma_v_m: f.sigma[1],
+                            sigma_vel_mps: f.sigma[2],
+                        });
+                    }
+                }
+            }
+        }
         if cfg.ideal {
             hist.push(kin_exact(t));
         } else {
@@ -567,7 +632,28 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             }
             let j = (jitter.normal() * cfg.imu.jitter_s).clamp(-MAX_JITTER_S, MAX_JITTER_S);
             let t_true = (t_k - cfg.imu.latency_s + j).max(0.0);
-            let (w, f) = scene.truth(&kin_at(t_true), t_true);
+            let (w, f) = match veh_at(&veh_hist, t_true) {
+                Some(v) => {
+                    let (w_b, f_b) = v.ideal_b();
+                    let f_b = f_b + crate::drive::vibration_b(t_true, v.speed_mps);
+                    scene.truth_on_vehicle(&kin_at(t_true), t_true, &w_b, &f_b)
+                }
+                None => scene.truth(&kin_at(t_true), t_true),
+            };
+            if let Some(v) = veh_at(&veh_hist, t_k) {
+                let d = origin.ned_to(&v.pos);
+                let [r, p, h] = v.euler_rad;
+                truth_rows.push(TruthRow {
+                    t_s: t_k,
+                    p_n_m: [d.x, d.y, d.z],
+                    v_n_mps: [v.v_n.x, v.v_n.y, v.v_n.z],
+                    euler_deg: [
+                        r.to_degrees(),
+                        p.to_degrees(),
+                        h.to_degrees().rem_euclid(360.0),
+                    ],
+                });
+            }
             let temp = imu.temperature_c(t_true);
             let (g, a) = imu.measure(&w, &f, temp, imu_dt);
             rec.imu.push(ImuRow {
@@ -601,5 +687,59 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         }
     }
     progress(1.0);
+    if let Some(d) = &cfg.drive {
+        // The base's attitude at t = 0 is the vehicle's (its pitch on the
+        // road's grade there).
+        if let Some(first) = truth_rows.first() {
+            let [r, p, h] = first.euler_deg;
+            rec.meta.roll_deg = r;
+            rec.meta.pitch_deg = p;
+            rec.meta.heading_deg = h;
+        }
+        if let Some(desc) = rec.meta.description.as_mut() {
+            desc.push_str(&format!(", {} drive", d.kind.name()));
+        }
+        rec.moving = Some(MovingBase {
+            longitude_deg: d.longitude_deg,
+            gnss_meta: Some(GnssMeta {
+                antenna_b_m: [
+                    d.gnss.antenna_b_m.x,
+                    d.gnss.antenna_b_m.y,
+                    d.gnss.antenna_b_m.z,
+                ],
+                rate_hz: d.gnss.rate_hz,
+            }),
+            gnss: Some(gnss_rows),
+            truth: Some(truth_rows),
+        });
+    }
     Ok(rec)
+}
+
+/// The vehicle at `t` (s) from the tick history, its rates and forces
+/// linear between ticks; `None` on a static base.
+fn veh_at(h: &VecDeque<VehicleState>, t: f64) -> Option<VehicleState> {
+    let first = h.front()?;
+    let x = ((t - first.t_s) / PHYS_DT).max(0.0);
+    let i = (x.floor() as usize).min(h.len().saturating_sub(2));
+    let (Some(a), Some(b)) = (h.get(i), h.get(i + 1)) else {
+        return h.back().copied();
+    };
+    let u = (x - i as f64).clamp(0.0, 1.0);
+    let mut v = *a;
+    v.t_s = a.t_s + u * (b.t_s - a.t_s);
+    v.v_n = a.v_n + (b.v_n - a.v_n) * u;
+    v.a_n = a.a_n + (b.a_n - a.a_n) * u;
+    v.w_nb_b = a.w_nb_b + (b.w_nb_b - a.w_nb_b) * u;
+    v.pos.lat_rad = a.pos.lat_rad + u * (b.pos.lat_rad - a.pos.lat_rad);
+    v.pos.lon_rad = a.pos.lon_rad + u * (b.pos.lon_rad - a.pos.lon_rad);
+    v.pos.height_m = a.pos.height_m + u * (b.pos.height_m - a.pos.height_m);
+    for k in 0..3 {
+        v.euler_rad[k] = a.euler_rad[k] + u * wrap(b.euler_rad[k] - a.euler_rad[k]);
+    }
+    Some(v)
+}
+
+fn wrap(x: f64) -> f64 {
+    (x + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }

@@ -121,6 +121,33 @@ impl Scene {
         core_nav::site::c_b_n(&self.base)
     }
 
+    /// True `(w_is_s rad/s, f_s m/s^2)` on a moving base: the vehicle's
+    /// `(w_ib_b, f_b)` at `t_s` (`drive::VehicleState::ideal_b`) turned into
+    /// the sensor on the table at kinematics `k`, the table's own rate and
+    /// lever-arm terms added as on a static base (`site` and `base` unused).
+    pub fn truth_on_vehicle(
+        &self,
+        k: &Kinematics,
+        t_s: f64,
+        w_ib_b: &Vector3<f64>,
+        f_b: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let g = &self.geometry;
+        let kt = g.k_true();
+        let c_s_p = g.c_s_p();
+        let c_p_s = c_s_p.transpose();
+        let c_b_s = g.c_s_b(k.theta).transpose();
+        let (w_bump, a_bump) = self
+            .bump
+            .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
+        let r_p = c_s_p * g.lever_arm_s;
+        let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
+        (
+            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate),
+            c_b_s * (f_b + a_bump) + c_p_s * a_lever_p,
+        )
+    }
+
     /// True `(w_is_s rad/s, f_s m/s^2)` for platform kinematics `k` at `t_s`.
     pub fn truth(&self, k: &Kinematics, t_s: f64) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;

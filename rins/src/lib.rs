@@ -6,11 +6,13 @@
 //! in SVG and PNG). The `rins` binary (`src/cmd/`, one file per command)
 //! wires these to the command line.
 
+pub mod aided;
 pub mod allan;
 pub mod calibrate;
 pub mod demo;
 pub mod diagnose;
 pub mod nav;
+pub mod outages;
 pub mod plot;
 pub mod qemu_replay;
 pub mod realnoise;

@@ -29,6 +29,9 @@ enum Command {
     Diagnose(cmd::diagnose::Args),
     /// The blind study of `diagnose`: hidden effects at several magnitudes, nulls.
     Study(cmd::study::Args),
+    /// The aided rotary INS through GNSS outages: Monte Carlo of simulated
+    /// drives, rotary against conventional, per sensor.
+    Outages(cmd::outages::Args),
     /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
     QemuReplay(cmd::qemu_replay::Args),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
@@ -57,5 +60,6 @@ fn main() -> Result<()> {
         Command::QemuReplay(a) => cmd::qemu_replay::run(&a),
         Command::Diagnose(a) => cmd::diagnose::run(&a),
         Command::Study(a) => cmd::study::run(&a),
+        Command::Outages(a) => cmd::outages::run(&a),
     }
 }

@@ -163,6 +163,7 @@ mod tests {
 
     fn run(n: usize) -> Recording {
         Recording {
+            moving: None,
             meta: Meta::default(),
             imu: (0..n)
                 .map(|k| ImuRow {

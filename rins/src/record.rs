@@ -52,6 +52,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
     let mut out = [0u8; MAX_PAYLOAD + 2];
     let mut r = Decoded {
         recording: Recording {
+            moving: None,
             meta: Meta {
                 imu_sample: SampleKind::Average,
                 ..meta

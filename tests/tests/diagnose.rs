@@ -406,6 +406,7 @@ fn adis16405_bench_hour_shows_bias_instability() {
         })
         .collect();
     let rec = Recording {
+        moving: None,
         meta: Meta {
             latitude_deg: 51.08,
             height_m: 1100.0,

@@ -202,6 +202,7 @@ fn reversals(duration_s: f64) -> hal_sim::recording::Recording {
     let omega = 7.292_115e-5;
     let g = 9.7936;
     let mut rec = Recording {
+        moving: None,
         meta: Meta {
             description: Some("independent closed-form reversals".into()),
             latitude_deg: lat.to_degrees(),

@@ -5,7 +5,7 @@
 
 use core_nav::attitude::{quat_to_dcm, rotvec_to_quat, skew};
 use core_nav::earth::{earth_rate_n, GeoPoint};
-use core_nav::eskf::{Eskf, EskfConfig, InitialSigma, I_BA, I_BG, I_P, I_PHI, I_V, N};
+use core_nav::eskf::{Eskf, EskfConfig, InitialSigma, I_BA, I_BG, I_GP, I_P, I_PHI, I_V, N};
 use core_nav::site::Site;
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig};
 use nalgebra::{DMatrix, DVector, Matrix3, Quaternion, Rotation3, Vector3};
@@ -19,6 +19,9 @@ fn cfg() -> EskfConfig {
         accel_bias_sigma: 0.01,
         accel_bias_tau_s: 300.0,
         gate_sigma: 1e6,
+        table_scale_sigma: 3e-3,
+        gnss_corr_sigma_m: [1.0, 2.0],
+        gnss_corr_tau_s: 60.0,
     }
 }
 
@@ -34,7 +37,7 @@ fn init() -> InitialSigma {
 /// A filter with some cross-covariance: a few predicts on a moving,
 /// turning state.
 fn warmed() -> Eskf<f64> {
-    let mut f = Eskf::<f64>::new(cfg(), &init());
+    let mut f = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
     let w_ie = earth_rate_n(0.5f64, 0.866);
     for k in 0..50 {
         let c = *Rotation3::from_euler_angles(0.1, -0.05, 0.02 * k as f64).matrix();
@@ -43,6 +46,7 @@ fn warmed() -> Eskf<f64> {
             &Vector3::new(0.5, -0.3, -9.8),
             &w_ie,
             &Vector3::new(1e-6, -2e-6, 0.0),
+            &Vector3::new(0.0, 0.0, 0.5),
             0.1,
         );
     }
@@ -69,6 +73,7 @@ fn sequential_joseph_update_equals_the_textbook_block_update() {
     let lx = -skew(&l_n);
     for i in 0..3 {
         h[(i, I_P + i)] = 1.0;
+        h[(i, I_GP + i)] = 1.0;
         for j in 0..3 {
             h[(i, I_PHI + j)] = lx[(i, j)];
         }
@@ -104,8 +109,17 @@ fn sequential_joseph_update_equals_the_textbook_block_update() {
 #[test]
 fn a_position_fix_on_a_diagonal_prior_is_the_scalar_closed_form() {
     // Prior variance a, measurement variance r: posterior a r / (a + r),
-    // gain a / (a + r) (any textbook).
-    let mut f = Eskf::<f64>::new(cfg(), &init());
+    // gain a / (a + r) (any textbook). The receiver's correlated error is
+    // switched off here (its sigma 0) so the position is the only state
+    // the fix sees.
+    let mut f = Eskf::<f64>::new(
+        EskfConfig {
+            gnss_corr_sigma_m: [0.0, 0.0],
+            ..cfg()
+        },
+        &init(),
+        Vector3::z(),
+    );
     let a = 9.0;
     let r = 2.25;
     let rep = f
@@ -161,7 +175,7 @@ fn the_error_dynamics_follow_the_mechanization() {
     // Estimate: c_s_n,est = (I - [phi0 x]) c_s_n,true.
     let q_est = rotvec_to_quat(&(-phi0)) * q0;
     let mut est = Strapdown::new(scfg, origin, Vector3::zeros(), q_est, &sample(0, true)).unwrap();
-    let mut f = Eskf::<f64>::new(cfg(), &init());
+    let mut f = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
     f.dx[I_PHI] = phi0.x;
     f.dx[I_PHI + 1] = phi0.y;
     f.dx[I_PHI + 2] = phi0.z;
@@ -176,7 +190,14 @@ fn the_error_dynamics_follow_the_mechanization() {
         let st = *est.state();
         let c = quat_to_dcm(&st.q_s_n);
         let f_n = c * sample(t_us, true).f_s;
-        f.predict(&c, &f_n, &w_ie, &Vector3::zeros(), 0.01);
+        f.predict(
+            &c,
+            &f_n,
+            &w_ie,
+            &Vector3::zeros(),
+            &sample(t_us, true).w_is_s,
+            0.01,
+        );
         truth.step(&sample(t_us, false)).unwrap();
         est.step(&sample(t_us, true)).unwrap();
     }
@@ -211,8 +232,8 @@ fn the_f32_board_filter_follows_its_f64_twin() {
     // relative, the corrections within 1e-3 of their size (f32 keeps ~7
     // digits; a 15x15 Joseph update loses at most ~2 of them with these
     // conditionings).
-    let mut a = Eskf::<f64>::new(cfg(), &init());
-    let mut b = Eskf::<f32>::new(cfg(), &init());
+    let mut a = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
+    let mut b = Eskf::<f32>::new(cfg(), &init(), Vector3::z());
     let w_ie = earth_rate_n(0.5f64, 0.866);
     for k in 0..600 {
         let c = *Rotation3::from_euler_angles(
@@ -222,12 +243,14 @@ fn the_f32_board_filter_follows_its_f64_twin() {
         )
         .matrix();
         let f_n = Vector3::new(0.3 * (k as f64 * 0.01).sin(), 0.1, -9.8);
-        a.predict(&c, &f_n, &w_ie, &Vector3::zeros(), 0.01);
+        let w = Vector3::new(0.001, -0.002, 0.52);
+        a.predict(&c, &f_n, &w_ie, &Vector3::zeros(), &w, 0.01);
         b.predict(
             &c.cast(),
             &f_n.cast(),
             &w_ie.cast(),
             &Vector3::zeros(),
+            &w.cast(),
             0.01,
         );
         if k % 100 == 99 {
@@ -255,7 +278,7 @@ fn the_f32_board_filter_follows_its_f64_twin() {
 
 #[test]
 fn bad_measurements_are_refused_and_counted() {
-    let mut f = Eskf::<f32>::new(cfg(), &init());
+    let mut f = Eskf::<f32>::new(cfg(), &init(), Vector3::z());
     let p0 = f.p;
     assert!(f
         .update_position(
@@ -276,6 +299,7 @@ fn bad_measurements_are_refused_and_counted() {
             ..cfg()
         },
         &init(),
+        Vector3::z(),
     );
     let rep = g
         .update_position(

@@ -6,6 +6,7 @@ pub mod calibrate;
 pub mod demo;
 pub mod diagnose;
 pub mod navigate;
+pub mod outages;
 pub mod qemu_replay;
 pub mod record;
 pub mod reproduce;
@@ -37,7 +38,8 @@ pub enum SchemeArg {
     Reciprocating,
     /// --positions positions with --dwell-s dwell.
     Indexed,
-    /// No rotation.
+    /// No rotation (`none`: the conventional twin of a rotary run).
+    #[value(alias = "none")]
     Still,
 }
 

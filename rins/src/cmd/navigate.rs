@@ -36,6 +36,18 @@ pub struct Args {
     /// Also write the summary as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Aid with the recording's GNSS fixes (`gnss.csv`) and zero-velocity
+    /// updates: the error-state Kalman filter; trajectory.csv gets the
+    /// filter's 1-sigma columns.
+    #[arg(long)]
+    pub gnss: bool,
+    /// No zero-velocity updates (with --gnss).
+    #[arg(long, requires = "gnss")]
+    pub no_zupt: bool,
+    /// The sensor profile the filter's noise model comes from (default:
+    /// the one named by the recording's `[imu] model`).
+    #[arg(long, requires = "gnss")]
+    pub imu_profile: Option<String>,
 }
 
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
@@ -48,6 +60,9 @@ fn load_calibration(p: &Path) -> Result<GyroCalibration> {
 /// Runs `rins navigate`.
 pub fn run(a: &Args) -> Result<()> {
     let rec = read_recording(&a.rec)?;
+    if a.gnss {
+        return run_aided(a, &rec);
+    }
     let calibration = a
         .calibration
         .as_ref()
@@ -98,6 +113,50 @@ pub fn run(a: &Args) -> Result<()> {
                 &serde_json::json!({"errors": e, "refused_steps": faults}),
             )?,
         )?;
+    }
+    Ok(())
+}
+
+/// `rins navigate --gnss`.
+fn run_aided(a: &Args, rec: &hal_sim::recording::Recording) -> Result<()> {
+    use hal_sim::imu::ImuSpec;
+    let profile = match &a.imu_profile {
+        Some(name) => ImuSpec::by_name(name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--imu-profile {name:?}: one of {}",
+                ImuSpec::NAMES.join(", ")
+            )
+        })?,
+        None => rec
+            .meta
+            .imu_model
+            .as_deref()
+            .and_then(ImuSpec::by_model)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "the recording's [imu] model names no known profile: give --imu-profile ({})",
+                    ImuSpec::NAMES.join(", ")
+                )
+            })?,
+    };
+    let opt = rins::aided::AidedOptions {
+        profile,
+        zupt: !a.no_zupt,
+        gate_sigma: 6.0,
+    };
+    let pb = progress_bar("navigate --gnss");
+    let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    pb.finish_and_clear();
+    std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
+    write_file(
+        &a.out.join("trajectory.csv"),
+        &rins::aided::trajectory_csv(&run.rows),
+    )?;
+    let summary = rins::aided::summary(rec, &run);
+    print!("{}", summary.text());
+    println!("wrote {}", a.out.join("trajectory.csv").display());
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&summary.json())?)?;
     }
     Ok(())
 }

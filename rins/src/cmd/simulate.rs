@@ -60,6 +60,18 @@ pub struct Args {
     /// List the effects and exit.
     #[arg(long)]
     pub list_effects: bool,
+    /// Put the table on a vehicle: a seeded `city` or `highway` drive
+    /// (starts, stops, turns, hills) with a 1 Hz GNSS receiver; the
+    /// recording adds `gnss.csv` and `truth.csv` (recording-v1, "Moving base
+    /// and GNSS"). `--heading-deg` is the vehicle's heading at the start.
+    #[arg(long, value_name = "KIND")]
+    pub drive: Option<String>,
+    /// A GNSS outage, START:LEN in seconds (repeatable).
+    #[arg(long = "gnss-outage", value_name = "START:LEN", requires = "drive")]
+    pub gnss_outages: Vec<String>,
+    /// Longitude of the start, deg (moving base).
+    #[arg(long, default_value_t = 114.35, requires = "drive")]
+    pub lon_deg: f64,
     /// Re-simulate this recording's own run (its sample times, encoder
     /// reads, temperatures, site and base) with the sensor of `--sim-model`:
     /// its twin. The scheme, site and sensor flags do not apply.
@@ -126,6 +138,25 @@ impl Args {
         }
         c.base_deg = self.site.base_deg();
         c.seed = self.seed;
+        if let Some(kind) = &self.drive {
+            let kind = hal_sim::drive::DriveKind::parse(kind)
+                .ok_or_else(|| anyhow!("--drive {kind:?}: expected city or highway"))?;
+            let mut gnss = hal_sim::drive::GnssSpec::default();
+            for o in &self.gnss_outages {
+                gnss.outages
+                    .push(hal_sim::drive::parse_outage(o).map_err(|e| anyhow!(e))?);
+            }
+            if self.site.pitch_deg != 0.0 || self.site.roll_deg != 0.0 {
+                return Err(anyhow!(
+                    "--pitch-deg / --roll-deg do not apply to a drive: the road sets them"
+                ));
+            }
+            c.drive = Some(hal_sim::sim::DriveSpec {
+                kind,
+                gnss,
+                longitude_deg: self.lon_deg,
+            });
+        }
         for e in &self.effects {
             let (name, v) = parse_effect(e)?;
             c.set_effect(&name, v).map_err(|m| anyhow!(m))?;

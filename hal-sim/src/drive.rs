@@ -1,0 +1,619 @@
+//! A vehicle carrying the table: seeded drives (`city`, `highway`: starts,
+//! stops, turns, hills), the vehicle's true motion integrated on the WGS-84
+//! earth, what an ideal sensor on the spinning table reads on it, and a
+//! GNSS receiver (fixes of the antenna at its rate, noise, reported sigmas,
+//! outages).
+//!
+//! The vehicle is the base `b` (x forward, y right, z down), with no roll;
+//! its speed `s`, heading `psi` and pitch `theta` (from the road's grade)
+//! make `v_n = s (cos theta cos psi, cos theta sin psi, -sin theta)`. Its
+//! controls (longitudinal acceleration, yaw rate) are piecewise constant
+//! with raised-cosine edges (continuous, so the specific force has no
+//! steps between samples); the grade is a sum of sines along the distance.
+//!
+//! The ideal sensor (recording-v1, "Moving base and GNSS"; Groves Eq. 5.54
+//! rearranged), with the earth quantities of `core_nav::earth` (one
+//! physics):
+//!
+//! ```text
+//! w_ib_b = c_n_b (w_ie_n + w_en_n) + w_nb_b,  w_nb_b = (-psi' sin theta, theta', psi' cos theta)
+//! f_b    = c_n_b (v_n' + (2 w_ie_n + w_en_n) x v_n - g_n)
+//! w_is_s = c_b_s w_ib_b + theta_table' k,     f_s = c_b_s f_b
+//! ```
+//!
+//! (the IMU at the table's centre; the table's own lever-arm terms are the
+//! static world's, `world::Scene`).
+
+use crate::rng::Rng;
+use core_nav::attitude::Euler;
+use core_nav::earth::{earth_rate_n, normal_gravity, radii, transport_rate_n, GeoPoint};
+use nalgebra::{Matrix3, Vector3};
+
+/// Which kind of drive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DriveKind {
+    /// Stops every minute or two, 8-14 m/s, right-angle turns, 3 % hills.
+    City,
+    /// 25-33 m/s, gentle curves and lane changes, 4 % grades over 2 km.
+    Highway,
+}
+
+impl DriveKind {
+    /// `city` or `highway`.
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "city" => Some(Self::City),
+            "highway" => Some(Self::Highway),
+            _ => None,
+        }
+    }
+
+    /// The name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::City => "city",
+            Self::Highway => "highway",
+        }
+    }
+}
+
+/// Half the length of a control's raised-cosine edge, s.
+const EDGE_S: f64 = 0.4;
+
+/// One control held over `[t0, t1]`, with raised-cosine edges centred on
+/// `t0` and `t1` (its integral is exactly `value (t1 - t0)`).
+#[derive(Clone, Copy, Debug)]
+struct Hold {
+    t0: f64,
+    t1: f64,
+    value: f64,
+}
+
+impl Hold {
+    /// Its integral from the start of time to `t` (exact: the plan's speed
+    /// and heading carry no integration error, and a stop is a stop).
+    fn integral(&self, t: f64) -> f64 {
+        let e = |c: f64| -> f64 {
+            let u = (t - (c - EDGE_S)) / (2.0 * EDGE_S);
+            if u <= 0.0 {
+                0.0
+            } else if u >= 1.0 {
+                t - c
+            } else {
+                let w = std::f64::consts::PI * u;
+                2.0 * EDGE_S * (0.5 * u - w.sin() / (2.0 * std::f64::consts::PI))
+            }
+        };
+        self.value * (e(self.t0) - e(self.t1))
+    }
+
+    fn at(&self, t: f64) -> (f64, f64) {
+        // (value, derivative)
+        let edge = |c: f64| -> (f64, f64) {
+            // 0 before c - e, 1 after c + e, raised cosine between.
+            let u = (t - (c - EDGE_S)) / (2.0 * EDGE_S);
+            if u <= 0.0 {
+                (0.0, 0.0)
+            } else if u >= 1.0 {
+                (1.0, 0.0)
+            } else {
+                let w = std::f64::consts::PI * u;
+                (
+                    0.5 * (1.0 - w.cos()),
+                    0.5 * w.sin() * std::f64::consts::PI / (2.0 * EDGE_S),
+                )
+            }
+        };
+        let (a, da) = edge(self.t0);
+        let (b, db) = edge(self.t1);
+        (self.value * (a - b), self.value * (da - db))
+    }
+}
+
+/// A drive's plan: accelerations and yaw rates over time, the road's grade.
+#[derive(Clone, Debug)]
+pub struct Drive {
+    /// Kind.
+    pub kind: DriveKind,
+    accel: Vec<Hold>,
+    yaw: Vec<Hold>,
+    /// Grade as (amplitude, wavelength m, phase rad) sines of the distance.
+    grade: Vec<(f64, f64, f64)>,
+    /// Length of the plan, s.
+    pub duration_s: f64,
+}
+
+/// Seconds a plan adds after the requested end (the vehicle keeps going).
+const TAIL_S: f64 = 5.0;
+
+impl Drive {
+    /// A seeded plan of at least `duration_s`.
+    pub fn plan(kind: DriveKind, duration_s: f64, seed: u64) -> Self {
+        let mut rng = Rng::new(seed, 21);
+        let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.uniform();
+        let (mut accel, mut yaw) = (vec![], vec![]);
+        let mut t;
+        let mut v = 0.0;
+        let end = duration_s + TAIL_S;
+        let go = |accel: &mut Vec<Hold>, t: &mut f64, v: &mut f64, target: f64, a: f64| {
+            let dur = (target - *v).abs() / a;
+            if dur > 0.0 {
+                accel.push(Hold {
+                    t0: *t,
+                    t1: *t + dur,
+                    value: (target - *v).signum() * a,
+                });
+                *t += dur;
+                *v = target;
+            }
+        };
+        match kind {
+            DriveKind::City => {
+                t = u(8.0, 15.0); // parked at the start
+                while t < end {
+                    let cruise = u(8.0, 14.0);
+                    go(&mut accel, &mut t, &mut v, cruise, u(1.2, 2.2));
+                    let mut left = u(20.0, 60.0);
+                    while left > 0.0 && t < end {
+                        let straight = u(5.0, 20.0).min(left);
+                        t += straight;
+                        left -= straight;
+                        if u(0.0, 1.0) < 0.6 {
+                            // A right-angle turn at the cruise speed.
+                            let dur = u(6.0, 9.0);
+                            let sign = if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+                            yaw.push(Hold {
+                                t0: t,
+                                t1: t + dur,
+                                value: sign * std::f64::consts::FRAC_PI_2 / dur,
+                            });
+                            t += dur;
+                        }
+                    }
+                    go(&mut accel, &mut t, &mut v, 0.0, u(1.5, 2.5));
+                    t += u(10.0, 25.0); // the light
+                }
+            }
+            DriveKind::Highway => {
+                t = u(5.0, 10.0);
+                go(&mut accel, &mut t, &mut v, u(25.0, 33.0), u(1.2, 1.8));
+                while t < end {
+                    let straight = u(20.0, 60.0);
+                    t += straight;
+                    let r = u(0.5, 2.0).to_radians() * if u(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+                    let dur = u(15.0, 40.0);
+                    yaw.push(Hold {
+                        t0: t,
+                        t1: t + dur,
+                        value: r,
+                    });
+                    t += dur;
+                    if u(0.0, 1.0) < 0.3 {
+                        // Traffic: slow down and speed up again.
+                        let target = u(18.0, 24.0);
+                        let back = v;
+                        go(&mut accel, &mut t, &mut v, target, u(0.8, 1.5));
+                        t += u(10.0, 30.0);
+                        go(&mut accel, &mut t, &mut v, back, u(0.8, 1.5));
+                    }
+                }
+            }
+        }
+        let grade = match kind {
+            DriveKind::City => vec![
+                (0.03, u(300.0, 500.0), u(0.0, std::f64::consts::TAU)),
+                (0.01, 90.0, u(0.0, std::f64::consts::TAU)),
+            ],
+            DriveKind::Highway => vec![(0.04, u(1500.0, 2500.0), u(0.0, std::f64::consts::TAU))],
+        };
+        Self {
+            kind,
+            accel,
+            yaw,
+            grade,
+            duration_s: t.max(end),
+        }
+    }
+
+    /// Speed along the road at `t`, m/s (the acceleration's exact
+    /// integral; exactly 0 when stopped).
+    pub fn speed_at(&self, t: f64) -> f64 {
+        let v = integral_at(&self.accel, t);
+        if v.abs() < 1e-9 {
+            0.0
+        } else {
+            v.max(0.0)
+        }
+    }
+
+    /// Longitudinal acceleration (m/s^2) and its rate at `t` (s).
+    fn accel_at(&self, t: f64) -> (f64, f64) {
+        sum_at(&self.accel, t)
+    }
+
+    /// Yaw rate (rad/s) and its rate at `t`.
+    fn yaw_at(&self, t: f64) -> (f64, f64) {
+        sum_at(&self.yaw, t)
+    }
+
+    /// Pitch (rad) and its derivative along the distance (rad/m) at
+    /// distance `d` (m).
+    fn pitch_at(&self, d: f64) -> (f64, f64) {
+        let tau = std::f64::consts::TAU;
+        let (mut g, mut dg) = (0.0, 0.0);
+        for (a, l, ph) in &self.grade {
+            g += a * (tau * d / l + ph).sin();
+            dg += a * tau / l * (tau * d / l + ph).cos();
+        }
+        // theta = atan(g): d theta / d d = g' / (1 + g^2).
+        (g.atan(), dg / (1.0 + g * g))
+    }
+}
+
+fn integral_at(h: &[Hold], t: f64) -> f64 {
+    h.iter().map(|x| x.integral(t)).sum()
+}
+
+fn sum_at(h: &[Hold], t: f64) -> (f64, f64) {
+    h.iter()
+        .filter(|x| t > x.t0 - EDGE_S && t < x.t1 + EDGE_S)
+        .fold((0.0, 0.0), |(a, b), x| {
+            let (v, d) = x.at(t);
+            (a + v, b + d)
+        })
+}
+
+/// The vehicle's true state at one time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VehicleState {
+    /// Time, s.
+    pub t_s: f64,
+    /// Position of the table's centre.
+    pub pos: GeoPoint,
+    /// Velocity relative to the earth, NED, m/s.
+    pub v_n: Vector3<f64>,
+    /// Its time derivative, NED, m/s^2.
+    pub a_n: Vector3<f64>,
+    /// Attitude of `b` in `n`: roll (0), pitch, heading, rad.
+    pub euler_rad: [f64; 3],
+    /// Rate of `b` relative to `n`, in `b`, rad/s.
+    pub w_nb_b: Vector3<f64>,
+    /// Speed along the road, m/s.
+    pub speed_mps: f64,
+    /// Distance driven, m.
+    pub distance_m: f64,
+}
+
+impl VehicleState {
+    /// `c_b_n`.
+    pub fn c_b_n(&self) -> Matrix3<f64> {
+        let [r, p, h] = self.euler_rad;
+        core_nav::site::c_b_n(&Euler {
+            roll: r,
+            pitch: p,
+            heading: h,
+        })
+    }
+
+    /// What an ideal IMU with axes `b` at the table's centre reads:
+    /// `(w_ib_b rad/s, f_b m/s^2)` (module docs).
+    pub fn ideal_b(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let (s, c) = (self.pos.lat_rad.sin(), self.pos.lat_rad.cos());
+        let (r_m, r_n) = radii(s * s);
+        let w_ie = earth_rate_n(s, c);
+        let w_en = transport_rate_n(&self.v_n, r_m, r_n, self.pos.height_m, s / c);
+        let g_n = Vector3::new(0.0, 0.0, normal_gravity(s * s, self.pos.height_m));
+        let c_n_b = self.c_b_n().transpose();
+        let w = c_n_b * (w_ie + w_en) + self.w_nb_b;
+        let f = c_n_b * (self.a_n + (w_ie * 2.0 + w_en).cross(&self.v_n) - g_n);
+        (w, f)
+    }
+}
+
+/// The body's vibration while the vehicle moves, added to the specific
+/// force in `b` at `t_s` (m/s^2): road and engine modes at 13 and 27 Hz,
+/// 0.25 and 0.1 m/s^2 vertically, 0.08 and 0.03 along and across, scaled up
+/// with the speed to 3 m/s; none when parked. Oscillatory, so the
+/// velocity it implies stays within 4 mm/s (not part of the truth).
+pub fn vibration_b(t_s: f64, speed_mps: f64) -> Vector3<f64> {
+    let k = (speed_mps / 3.0).clamp(0.0, 1.0);
+    if k == 0.0 {
+        return Vector3::zeros();
+    }
+    let tau = std::f64::consts::TAU;
+    let (a, b) = ((tau * 13.0 * t_s).sin(), (tau * 27.0 * t_s + 1.0).sin());
+    Vector3::new(0.08 * a + 0.03 * b, 0.03 * a - 0.08 * b, 0.25 * a + 0.1 * b) * k
+}
+
+/// The vehicle integrated over a drive at a fixed step.
+#[derive(Clone, Debug)]
+pub struct Vehicle {
+    drive: Drive,
+    state: VehicleState,
+    heading0: f64,
+}
+
+impl Vehicle {
+    /// Parked at `origin`, heading `heading_deg`, at `t = 0`.
+    pub fn new(drive: Drive, origin: GeoPoint, heading_deg: f64) -> Self {
+        let mut v = Self {
+            drive,
+            state: VehicleState {
+                pos: origin,
+                ..VehicleState::default()
+            },
+            heading0: heading_deg.to_radians(),
+        };
+        v.state = v.derived(0.0, origin, 0.0);
+        v
+    }
+
+    /// The state now.
+    pub fn state(&self) -> &VehicleState {
+        &self.state
+    }
+
+    /// The drive.
+    pub fn drive(&self) -> &Drive {
+        &self.drive
+    }
+
+    /// Velocity, acceleration, attitude and rates from the integrated
+    /// speed, distance and heading.
+    fn derived(&self, t: f64, pos: GeoPoint, distance: f64) -> VehicleState {
+        let speed = self.drive.speed_at(t);
+        let (a, _) = self.drive.accel_at(t);
+        let (r, _) = self.drive.yaw_at(t);
+        let psi = self.heading0 + integral_at(&self.drive.yaw, t);
+        let (th, dth_dd) = self.drive.pitch_at(distance);
+        let th_dot = dth_dd * speed;
+        let (sp, cp, st, ct) = (psi.sin(), psi.cos(), th.sin(), th.cos());
+        let u = Vector3::new(ct * cp, ct * sp, -st);
+        let du_dpsi = Vector3::new(-ct * sp, ct * cp, 0.0);
+        let du_dth = Vector3::new(-st * cp, -st * sp, -ct);
+        VehicleState {
+            t_s: t,
+            pos,
+            v_n: u * speed,
+            a_n: u * a + (du_dpsi * r + du_dth * th_dot) * speed,
+            euler_rad: [0.0, th, psi.rem_euclid(std::f64::consts::TAU)],
+            w_nb_b: Vector3::new(-r * st, th_dot, r * ct),
+            speed_mps: speed,
+            distance_m: distance,
+        }
+    }
+
+    /// Advances by `dt` s: speed and heading from the plan's exact
+    /// integrals, distance and position by the midpoint rule.
+    pub fn step(&mut self, dt: f64) {
+        let s0 = self.state;
+        let t0 = s0.t_s;
+        let tm = t0 + 0.5 * dt;
+        let speed_m = self.drive.speed_at(tm);
+        let heading_m = self.heading0 + integral_at(&self.drive.yaw, tm);
+        let d_m = s0.distance_m + 0.5 * dt * speed_m;
+        let (th, _) = self.drive.pitch_at(d_m);
+        let v_m = Vector3::new(
+            th.cos() * heading_m.cos(),
+            th.cos() * heading_m.sin(),
+            -th.sin(),
+        ) * speed_m;
+        let lat_m = s0.pos.lat_rad + 0.5 * dt * s0.v_n.x / meridian(&s0.pos);
+        let pm = GeoPoint {
+            lat_rad: lat_m,
+            ..s0.pos
+        };
+        let pos = GeoPoint {
+            lat_rad: s0.pos.lat_rad + dt * v_m.x / meridian(&pm),
+            lon_rad: s0.pos.lon_rad + dt * v_m.y / (transverse(&pm) * lat_m.cos()),
+            height_m: s0.pos.height_m - dt * v_m.z,
+        };
+        let distance = s0.distance_m + dt * speed_m;
+        self.state = self.derived(t0 + dt, pos, distance);
+    }
+}
+
+fn meridian(p: &GeoPoint) -> f64 {
+    let s = p.lat_rad.sin();
+    radii(s * s).0 + p.height_m
+}
+
+fn transverse(p: &GeoPoint) -> f64 {
+    let s = p.lat_rad.sin();
+    radii(s * s).1 + p.height_m
+}
+
+/// The GNSS receiver.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GnssSpec {
+    /// Fix rate, Hz.
+    pub rate_hz: f64,
+    /// Antenna from the table's centre, in `b`, m.
+    pub antenna_b_m: Vector3<f64>,
+    /// Horizontal position error, 1-sigma per axis, m (half white, half a
+    /// 60 s Gauss-Markov: multipath and atmosphere drift).
+    pub sigma_h_m: f64,
+    /// Vertical, m.
+    pub sigma_v_m: f64,
+    /// Velocity error, 1-sigma per axis, m/s (white).
+    pub sigma_vel_mps: f64,
+    /// Outages: (start s, length s); no fix inside.
+    pub outages: Vec<(f64, f64)>,
+}
+
+impl Default for GnssSpec {
+    /// A 1 Hz automotive receiver, antenna 1 m ahead of and 0.8 m above the
+    /// table.
+    fn default() -> Self {
+        Self {
+            rate_hz: 1.0,
+            antenna_b_m: Vector3::new(1.0, 0.0, -0.8),
+            sigma_h_m: 1.5,
+            sigma_v_m: 3.0,
+            sigma_vel_mps: 0.05,
+            outages: vec![],
+        }
+    }
+}
+
+/// One receiver fix (recording-v1 `gnss.csv`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssFix {
+    /// Time, s (the IMU's clock).
+    pub t_s: f64,
+    /// Antenna position.
+    pub pos: GeoPoint,
+    /// Antenna velocity, NED, m/s.
+    pub v_n: Vector3<f64>,
+    /// Reported 1-sigma: horizontal, vertical (m), velocity (m/s).
+    pub sigma: [f64; 3],
+}
+
+/// Correlation time of the receiver's position error, s.
+const GNSS_TAU_S: f64 = 60.0;
+
+/// The receiver: its correlated position error and random streams.
+#[derive(Clone, Debug)]
+pub struct Receiver {
+    spec: GnssSpec,
+    rng: Rng,
+    drift: Vector3<f64>,
+    last_t: Option<f64>,
+}
+
+impl Receiver {
+    /// A receiver drawing its errors from `seed`.
+    pub fn new(spec: GnssSpec, seed: u64) -> Self {
+        let mut rng = Rng::new(seed, 31);
+        let sig = Vector3::new(spec.sigma_h_m, spec.sigma_h_m, spec.sigma_v_m) * 0.5f64.sqrt();
+        let drift = rng.normal3().component_mul(&sig);
+        Self {
+            spec,
+            rng,
+            drift,
+            last_t: None,
+        }
+    }
+
+    /// In an outage at `t`?
+    pub fn in_outage(&self, t: f64) -> bool {
+        self.spec.outages.iter().any(|(s, l)| t >= *s && t < s + l)
+    }
+
+    /// The fix for the vehicle in `v` (its time), `None` in an outage (the
+    /// error processes still advance).
+    pub fn fix(&mut self, v: &VehicleState) -> Option<GnssFix> {
+        let sp = &self.spec;
+        let sig = Vector3::new(sp.sigma_h_m, sp.sigma_h_m, sp.sigma_v_m) * 0.5f64.sqrt();
+        let dt = self.last_t.map_or(1.0 / sp.rate_hz, |l| v.t_s - l);
+        self.last_t = Some(v.t_s);
+        let phi = (-dt / GNSS_TAU_S).exp();
+        self.drift = self.drift * phi
+            + self
+                .rng
+                .normal3()
+                .component_mul(&(sig * (1.0 - phi * phi).sqrt()));
+        let white = self.rng.normal3().component_mul(&sig);
+        let vel_noise = self.rng.normal3() * sp.sigma_vel_mps;
+        if self.in_outage(v.t_s) {
+            return None;
+        }
+        let c_b_n = v.c_b_n();
+        let l_n = c_b_n * sp.antenna_b_m;
+        let err = self.drift + white;
+        let d_n = l_n + err;
+        let p = v.pos;
+        let pos = GeoPoint {
+            lat_rad: p.lat_rad + d_n.x / meridian(&p),
+            lon_rad: p.lon_rad + d_n.y / (transverse(&p) * p.lat_rad.cos()),
+            height_m: p.height_m - d_n.z,
+        };
+        let v_ant = v.v_n + c_b_n * v.w_nb_b.cross(&sp.antenna_b_m);
+        Some(GnssFix {
+            t_s: v.t_s,
+            pos,
+            v_n: v_ant + vel_noise,
+            sigma: [sp.sigma_h_m, sp.sigma_v_m, sp.sigma_vel_mps],
+        })
+    }
+}
+
+/// Parses `START:LEN` (s) of `--gnss-outage`.
+///
+/// # Errors
+/// Not two non-negative numbers, a zero length.
+pub fn parse_outage(s: &str) -> Result<(f64, f64), String> {
+    let (a, b) = s
+        .split_once(':')
+        .ok_or_else(|| format!("--gnss-outage {s:?}: expected START:LEN in seconds"))?;
+    let start: f64 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("--gnss-outage {s:?}: START is not a number"))?;
+    let len: f64 = b
+        .trim()
+        .parse()
+        .map_err(|_| format!("--gnss-outage {s:?}: LEN is not a number"))?;
+    if !(start.is_finite() && len.is_finite() && start >= 0.0 && len > 0.0) {
+        return Err(format!(
+            "--gnss-outage {s:?}: START must be >= 0 and LEN > 0"
+        ));
+    }
+    Ok((start, len))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_plan_integrates_to_its_speeds_and_stops() {
+        for kind in [DriveKind::City, DriveKind::Highway] {
+            let d = Drive::plan(kind, 600.0, 3);
+            let mut v = Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 45.0);
+            let mut vmax: f64 = 0.0;
+            let mut stops = 0;
+            let mut prev = 0.0;
+            for _ in 0..600_000 {
+                v.step(1e-3);
+                let s = v.state().speed_mps;
+                vmax = vmax.max(s);
+                if prev > 0.0 && s == 0.0 {
+                    stops += 1;
+                }
+                prev = s;
+            }
+            match kind {
+                DriveKind::City => {
+                    assert!(vmax > 7.0 && vmax < 14.5, "{vmax}");
+                    assert!(stops >= 3, "{stops} stops");
+                }
+                DriveKind::Highway => assert!(vmax > 24.0 && vmax < 33.5, "{vmax}"),
+            }
+        }
+    }
+
+    #[test]
+    fn velocity_and_acceleration_agree() {
+        // a_n is v_n's derivative: central differences over 1 ms, to 1e-3
+        // m/s^2 (the midpoint rule's error at the raised-cosine edges).
+        let d = Drive::plan(DriveKind::City, 300.0, 5);
+        let mut v = Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 10.0);
+        let mut prev = *v.state();
+        v.step(1e-3);
+        let mut cur = *v.state();
+        for _ in 0..300_000 {
+            v.step(1e-3);
+            let next = *v.state();
+            let fd = (next.v_n - prev.v_n) / 2e-3;
+            assert!(
+                (fd - cur.a_n).norm() < 1e-3,
+                "t {}: {fd:?} vs {:?}",
+                cur.t_s,
+                cur.a_n
+            );
+            prev = cur;
+            cur = next;
+        }
+    }
+}

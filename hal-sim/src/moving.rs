@@ -1,0 +1,271 @@
+//! The moving-base part of a recording (recording-v1, "Moving base and
+//! GNSS"): `[base] moving = true`, the site's longitude, `[gnss]`
+//! (antenna lever arm in `b`, rate), `gnss.csv` (receiver fixes) and, for
+//! simulated runs, `truth.csv` (the base's true motion, trajectory-v1
+//! columns).
+
+use crate::recording::{parse_columns, RecordingError};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// `[gnss]` of `meta.toml`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssMeta {
+    /// Antenna position from the table's centre, in `b`, m.
+    pub antenna_b_m: [f64; 3],
+    /// Fix rate, Hz.
+    pub rate_hz: f64,
+}
+
+/// One `gnss.csv` row: the antenna's fix, WGS-84, velocity in `n`, the
+/// receiver's 1-sigma accuracies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GnssRow {
+    /// Time, s (the IMU's clock).
+    pub t_s: f64,
+    /// Latitude, deg.
+    pub lat_deg: f64,
+    /// Longitude, deg.
+    pub lon_deg: f64,
+    /// Height above the ellipsoid, m.
+    pub height_m: f64,
+    /// Velocity north, east, down, m/s.
+    pub v_n_mps: [f64; 3],
+    /// Horizontal 1-sigma, m.
+    pub sigma_h_m: f64,
+    /// Vertical 1-sigma, m.
+    pub sigma_v_m: f64,
+    /// Velocity 1-sigma, m/s.
+    pub sigma_vel_mps: f64,
+}
+
+/// One `truth.csv` row (trajectory-v1 columns: the base `b`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TruthRow {
+    /// Time, s.
+    pub t_s: f64,
+    /// North, east, down offset from the site point in its local NED, m.
+    pub p_n_m: [f64; 3],
+    /// Velocity, NED, m/s.
+    pub v_n_mps: [f64; 3],
+    /// Roll, pitch, heading of `b`, deg (heading in [0, 360)).
+    pub euler_deg: [f64; 3],
+}
+
+/// The moving-base files and keys of a recording.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct MovingBase {
+    /// `[site] longitude_deg` (0 when absent).
+    pub longitude_deg: f64,
+    /// `[gnss]`, when present.
+    pub gnss_meta: Option<GnssMeta>,
+    /// `gnss.csv`, when present.
+    pub gnss: Option<Vec<GnssRow>>,
+    /// `truth.csv`, when present (simulated runs).
+    pub truth: Option<Vec<TruthRow>>,
+}
+
+/// `gnss.csv` columns.
+pub const GNSS_COLS: [&str; 10] = [
+    "t_s",
+    "lat_deg",
+    "lon_deg",
+    "height_m",
+    "vn_mps",
+    "ve_mps",
+    "vd_mps",
+    "sigma_h_m",
+    "sigma_v_m",
+    "sigma_vel_mps",
+];
+
+/// `truth.csv` (and trajectory-v1) columns.
+pub const TRUTH_COLS: [&str; 10] = [
+    "t_s",
+    "north_m",
+    "east_m",
+    "down_m",
+    "vn_mps",
+    "ve_mps",
+    "vd_mps",
+    "roll_deg",
+    "pitch_deg",
+    "heading_deg",
+];
+
+fn meta_err(path: &Path, message: String) -> RecordingError {
+    RecordingError {
+        path: path.to_path_buf(),
+        line: None,
+        message,
+    }
+}
+
+/// The moving-base keys of `meta.toml` (`None` unless `[base] moving =
+/// true`).
+///
+/// # Errors
+/// `moving` not a boolean; `[gnss]` with a missing or malformed key.
+pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, RecordingError> {
+    let t: toml::Table = text
+        .parse()
+        .map_err(|e| meta_err(path, format!("not TOML: {e}")))?;
+    let moving = match t.get("base").and_then(|b| b.get("moving")) {
+        None => false,
+        Some(v) => v
+            .as_bool()
+            .ok_or_else(|| meta_err(path, "[base] moving: expected true or false".into()))?,
+    };
+    if !moving {
+        return Ok(None);
+    }
+    let num = |v: &toml::Value| v.as_float().or_else(|| v.as_integer().map(|i| i as f64));
+    let longitude_deg = match t.get("site").and_then(|s| s.get("longitude_deg")) {
+        None => 0.0,
+        Some(v) => num(v)
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| meta_err(path, "[site] longitude_deg: expected a number".into()))?,
+    };
+    let gnss_meta = match t.get("gnss") {
+        None => None,
+        Some(g) => {
+            let a = g
+                .get("antenna_b_m")
+                .and_then(|v| v.as_array())
+                .ok_or_else(|| meta_err(path, "[gnss] antenna_b_m: expected [x, y, z]".into()))?;
+            let v: Vec<f64> = a.iter().filter_map(num).filter(|x| x.is_finite()).collect();
+            let [x, y, z] = v[..] else {
+                return Err(meta_err(
+                    path,
+                    "[gnss] antenna_b_m: expected three numbers".into(),
+                ));
+            };
+            let rate_hz = g
+                .get("rate_hz")
+                .and_then(num)
+                .filter(|r| r.is_finite() && *r > 0.0)
+                .ok_or_else(|| {
+                    meta_err(path, "[gnss] rate_hz: expected a positive number".into())
+                })?;
+            Some(GnssMeta {
+                antenna_b_m: [x, y, z],
+                rate_hz,
+            })
+        }
+    };
+    Ok(Some(MovingBase {
+        longitude_deg,
+        gnss_meta,
+        gnss: None,
+        truth: None,
+    }))
+}
+
+/// Parses `gnss.csv`.
+///
+/// # Errors
+/// As the other recording files (missing columns, bad rows, time not
+/// increasing), and a sigma that is not positive.
+pub fn parse_gnss(text: &str, path: &Path) -> Result<Vec<GnssRow>, RecordingError> {
+    let rows = parse_columns(text, path, &GNSS_COLS)?;
+    rows.into_iter()
+        .map(|(line, v)| {
+            let [t_s, lat_deg, lon_deg, height_m, vn, ve, vd, sh, sv, sw] = v[..] else {
+                return Err(RecordingError {
+                    path: path.to_path_buf(),
+                    line: Some(line),
+                    message: "wrong number of columns".into(),
+                });
+            };
+            if !(sh > 0.0 && sv > 0.0 && sw > 0.0) {
+                return Err(RecordingError {
+                    path: path.to_path_buf(),
+                    line: Some(line),
+                    message: "sigmas must be positive".into(),
+                });
+            }
+            Ok(GnssRow {
+                t_s,
+                lat_deg,
+                lon_deg,
+                height_m,
+                v_n_mps: [vn, ve, vd],
+                sigma_h_m: sh,
+                sigma_v_m: sv,
+                sigma_vel_mps: sw,
+            })
+        })
+        .collect()
+}
+
+/// Parses `truth.csv` (or a trajectory-v1 `trajectory.csv`).
+///
+/// # Errors
+/// As the other recording files.
+pub fn parse_truth(text: &str, path: &Path) -> Result<Vec<TruthRow>, RecordingError> {
+    let rows = parse_columns(text, path, &TRUTH_COLS)?;
+    rows.into_iter()
+        .map(|(line, v)| {
+            let [t_s, n, e, d, vn, ve, vd, r, p, h] = v[..] else {
+                return Err(RecordingError {
+                    path: path.to_path_buf(),
+                    line: Some(line),
+                    message: "wrong number of columns".into(),
+                });
+            };
+            Ok(TruthRow {
+                t_s,
+                p_n_m: [n, e, d],
+                v_n_mps: [vn, ve, vd],
+                euler_deg: [r, p, h],
+            })
+        })
+        .collect()
+}
+
+/// `gnss.csv` as text.
+pub fn gnss_text(rows: &[GnssRow]) -> String {
+    let mut s = GNSS_COLS.join(",");
+    s.push('\n');
+    for r in rows {
+        let [vn, ve, vd] = r.v_n_mps;
+        let _ = writeln!(
+            s,
+            "{:.3},{:.9},{:.9},{:.3},{vn:.4},{ve:.4},{vd:.4},{},{},{}",
+            r.t_s, r.lat_deg, r.lon_deg, r.height_m, r.sigma_h_m, r.sigma_v_m, r.sigma_vel_mps
+        );
+    }
+    s
+}
+
+/// `truth.csv` as text.
+pub fn truth_text(rows: &[TruthRow]) -> String {
+    let mut s = TRUTH_COLS.join(",");
+    s.push('\n');
+    for r in rows {
+        let [n, e, d] = r.p_n_m;
+        let [vn, ve, vd] = r.v_n_mps;
+        let [ro, pi, he] = r.euler_deg;
+        let _ = writeln!(
+            s,
+            "{:.3},{n:.4},{e:.4},{d:.4},{vn:.5},{ve:.5},{vd:.5},{ro:.6},{pi:.6},{he:.6}",
+            r.t_s
+        );
+    }
+    s
+}
+
+/// The moving-base lines of `meta.toml`: (`[site]` keys, `[base]` keys,
+/// the `[gnss]` table).
+pub fn meta_lines(m: &MovingBase) -> (String, String, String) {
+    let site = format!("longitude_deg = {:?}\n", m.longitude_deg);
+    let base = "moving = true\n".to_string();
+    let gnss = m.gnss_meta.map_or(String::new(), |g| {
+        let [x, y, z] = g.antenna_b_m;
+        format!(
+            "\n[gnss]\nantenna_b_m = [{x:?}, {y:?}, {z:?}]\nrate_hz = {:?}\n",
+            g.rate_hz
+        )
+    });
+    (site, base, gnss)
+}

@@ -1,0 +1,367 @@
+//! The aided rotary INS through GNSS outages, Monte Carlo (`rins outages`):
+//! simulated drives (hal-sim) with outages of 10, 30, 60 and 120 s, each
+//! navigated with GNSS and zero-velocity aiding ([`crate::aided`]), rotary
+//! (`continuous` at 30 deg/s) against conventional (the table still), per
+//! sensor. The figure is the horizontal error at each outage's end.
+
+use crate::aided::{self, AidedOptions};
+use anyhow::{anyhow, Result};
+use core_nav::scheme::Scheme;
+use core_nav::table::Axis;
+use hal_sim::drive::{DriveKind, GnssSpec};
+use hal_sim::imu::ImuSpec;
+use hal_sim::sim::{simulate, DriveSpec, SimConfig};
+use serde::Serialize;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+
+/// Outages of each drive: (start s, length s). Starts are spread so each
+/// outage begins at a different point of the drive (moving or stopped).
+pub const OUTAGES: [(f64, f64); 4] = [(150.0, 10.0), (280.0, 30.0), (420.0, 60.0), (600.0, 120.0)];
+/// Drive length, s.
+pub const DRIVE_S: f64 = 900.0;
+/// Table rate of the rotary runs, deg/s.
+pub const TABLE_DPS: f64 = 30.0;
+
+/// One drive navigated.
+#[derive(Clone, Debug, Serialize)]
+pub struct DriveResult {
+    /// Sensor profile.
+    pub imu: String,
+    /// Rotary (true) or conventional.
+    pub rotary: bool,
+    /// Seed.
+    pub seed: u64,
+    /// Horizontal error at the end of each outage of [`OUTAGES`], m.
+    pub end_error_m: Vec<f64>,
+    /// The filter's horizontal 1-sigma there, m.
+    pub end_sigma_m: Vec<f64>,
+    /// Mean NEES per degree of freedom over the drive.
+    pub nees_per_dof: f64,
+    /// Fraction of seconds with the NEES inside its 95 % bounds.
+    pub nees_in_95: f64,
+}
+
+/// The study.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutageStudy {
+    /// Drive kind.
+    pub drive: String,
+    /// Outages (start, length), s.
+    pub outages: Vec<(f64, f64)>,
+    /// Every drive.
+    pub runs: Vec<DriveResult>,
+}
+
+/// The simulation of one drive.
+pub fn config(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> SimConfig {
+    let mut c = SimConfig::new(imu.clone(), Axis::Z, DRIVE_S);
+    c.scheme = if rotary {
+        Scheme::Continuous {
+            rate: TABLE_DPS.to_radians(),
+        }
+    } else {
+        Scheme::Still
+    };
+    c.seed = seed;
+    c.drive = Some(DriveSpec {
+        kind,
+        gnss: GnssSpec {
+            outages: OUTAGES.to_vec(),
+            ..GnssSpec::default()
+        },
+        longitude_deg: 114.35,
+    });
+    c
+}
+
+/// Runs `drives` seeds per (sensor, scheme) on `threads` threads.
+///
+/// # Errors
+/// A simulation or navigation failure.
+pub fn run(
+    kind: DriveKind,
+    imus: &[ImuSpec],
+    drives: u64,
+    threads: usize,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<OutageStudy> {
+    let jobs: Vec<(usize, bool, u64)> = (0..imus.len())
+        .flat_map(|i| {
+            [true, false]
+                .into_iter()
+                .flat_map(move |r| (1..=drives).map(move |s| (i, r, s)))
+        })
+        .collect();
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let out: Mutex<Vec<(usize, DriveResult)>> = Mutex::new(vec![]);
+    let fail: Mutex<Option<anyhow::Error>> = Mutex::new(None);
+    std::thread::scope(|sc| {
+        for _ in 0..threads.max(1) {
+            sc.spawn(|| loop {
+                let j = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&(i, rotary, seed)) = jobs.get(j) else {
+                    break;
+                };
+                match one(kind, &imus[i], rotary, seed) {
+                    Ok(r) => {
+                        if let Ok(mut o) = out.lock() {
+                            o.push((j, r));
+                        }
+                    }
+                    Err(e) => {
+                        if let Ok(mut f) = fail.lock() {
+                            f.get_or_insert(e);
+                        }
+                    }
+                }
+                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+                progress(d as f64 / jobs.len() as f64);
+            });
+        }
+    });
+    if let Some(e) = fail.into_inner().ok().flatten() {
+        return Err(e);
+    }
+    let mut runs = out.into_inner().map_err(|_| anyhow!("a worker panicked"))?;
+    runs.sort_by_key(|r| r.0);
+    Ok(OutageStudy {
+        drive: kind.name().into(),
+        outages: OUTAGES.to_vec(),
+        runs: runs.into_iter().map(|r| r.1).collect(),
+    })
+}
+
+fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveResult> {
+    let rec =
+        simulate(&config(kind, imu, rotary, seed), &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
+    let opt = AidedOptions {
+        profile: imu.clone(),
+        zupt: true,
+        gate_sigma: 6.0,
+    };
+    let run = aided::navigate(&rec, &opt, &mut |_| {})?;
+    let s = aided::summary(&rec, &run);
+    // Match each planned outage to the gap that contains its start.
+    let mut end_error_m = vec![];
+    let mut end_sigma_m = vec![];
+    for (start, len) in OUTAGES {
+        let g = s
+            .outages
+            .iter()
+            .find(|g| g.start_s <= start + 1e-6 && g.start_s + g.len_s >= start + len - 1e-6);
+        end_error_m.push(g.and_then(|g| g.end_error_m).unwrap_or(f64::NAN));
+        end_sigma_m.push(g.map_or(f64::NAN, |g| g.end_sigma_m));
+    }
+    Ok(DriveResult {
+        imu: imu.name.into(),
+        rotary,
+        seed,
+        end_error_m,
+        end_sigma_m,
+        nees_per_dof: s.nees_mean_per_dof.unwrap_or(f64::NAN),
+        nees_in_95: s.nees_in_95.unwrap_or(f64::NAN),
+    })
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+impl OutageStudy {
+    /// Mean end error per (sensor, rotary, outage index), m.
+    pub fn mean_error(&self, imu: &str, rotary: bool, k: usize) -> f64 {
+        let v: Vec<f64> = self
+            .runs
+            .iter()
+            .filter(|r| r.imu == imu && r.rotary == rotary)
+            .filter_map(|r| r.end_error_m.get(k).copied())
+            .filter(|x| x.is_finite())
+            .collect();
+        mean(&v)
+    }
+
+    /// The table as markdown.
+    pub fn markdown(&self) -> String {
+        let mut imus: Vec<&str> = self.runs.iter().map(|r| r.imu.as_str()).collect();
+        imus.dedup();
+        let n = self
+            .runs
+            .iter()
+            .filter(|r| r.imu == imus.first().copied().unwrap_or("") && r.rotary)
+            .count();
+        let mut o = format!(
+            "Horizontal error at the end of each GNSS outage, mean (median) over {n} {} drives of {DRIVE_S:.0} s (m):\n\n| sensor | scheme |",
+            self.drive
+        );
+        for (_, l) in &self.outages {
+            o += &format!(" {l:.0} s |");
+        }
+        o += " NEES / dof | NEES in 95 % |\n| --- | --- |";
+        for _ in &self.outages {
+            o += " --- |";
+        }
+        o += " --- | --- |\n";
+        for imu in &imus {
+            for rotary in [false, true] {
+                let rs: Vec<&DriveResult> = self
+                    .runs
+                    .iter()
+                    .filter(|r| r.imu == *imu && r.rotary == rotary)
+                    .collect();
+                o += &format!(
+                    "| {imu} | {} |",
+                    if rotary {
+                        "rotary 30 deg/s"
+                    } else {
+                        "conventional"
+                    }
+                );
+                for k in 0..self.outages.len() {
+                    let mut v: Vec<f64> = rs
+                        .iter()
+                        .filter_map(|r| r.end_error_m.get(k).copied())
+                        .filter(|x| x.is_finite())
+                        .collect();
+                    v.sort_by(f64::total_cmp);
+                    let med = v.get(v.len() / 2).copied().unwrap_or(f64::NAN);
+                    o += &format!(" {:.1} ({med:.1}) |", mean(&v));
+                }
+                let nees: Vec<f64> = rs
+                    .iter()
+                    .map(|r| r.nees_per_dof)
+                    .filter(|x| x.is_finite())
+                    .collect();
+                let inb: Vec<f64> = rs
+                    .iter()
+                    .map(|r| r.nees_in_95)
+                    .filter(|x| x.is_finite())
+                    .collect();
+                o += &format!(" {:.2} | {:.0} % |\n", mean(&nees), 100.0 * mean(&inb));
+            }
+        }
+        o
+    }
+}
+
+/// The drive demo's plots for one drive (`seed`) of `imu`: a map (east vs
+/// north) of the truth, the GNSS fixes, the conventional and the rotary
+/// tracks (`drive_map`), and the horizontal error of both against time
+/// with the filter's 3-sigma (`drive_error`).
+///
+/// # Errors
+/// A simulation, navigation or plotting failure.
+pub fn plots(
+    kind: DriveKind,
+    imu: &ImuSpec,
+    seed: u64,
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>> {
+    use crate::plot::{Chart, Series};
+    let mut map = Chart {
+        title: format!(
+            "{} drive, {} (seed {seed}): truth, GNSS fixes, conventional and rotary tracks",
+            kind.name(),
+            imu.name
+        ),
+        x_label: "east (m)".into(),
+        y_label: "north (m)".into(),
+        ..Chart::default()
+    };
+    let mut err = Chart {
+        title: "horizontal error against the truth (dashed: the filter's 3-sigma); GNSS outages 10, 30, 60, 120 s".into(),
+        x_label: "time (s)".into(),
+        y_label: "m".into(),
+        ..Chart::default()
+    };
+    for rotary in [false, true] {
+        let rec =
+            simulate(&config(kind, imu, rotary, seed), &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
+        let run = aided::navigate(
+            &rec,
+            &AidedOptions {
+                profile: imu.clone(),
+                zupt: true,
+                gate_sigma: 6.0,
+            },
+            &mut |_| {},
+        )?;
+        let truth = rec
+            .moving
+            .as_ref()
+            .and_then(|m| m.truth.clone())
+            .unwrap_or_default();
+        let origin = core_nav::earth::GeoPoint::from_deg(
+            rec.meta.latitude_deg,
+            rec.moving.as_ref().map_or(0.0, |m| m.longitude_deg),
+            rec.meta.height_m,
+        );
+        if !rotary {
+            map.series.push(Series::line(
+                "truth",
+                truth
+                    .iter()
+                    .step_by(50)
+                    .map(|r| (r.p_n_m[1], r.p_n_m[0]))
+                    .collect(),
+            ));
+            let fixes = rec
+                .moving
+                .as_ref()
+                .and_then(|m| m.gnss.clone())
+                .unwrap_or_default();
+            let mut g = Series::line(
+                "GNSS fixes",
+                fixes
+                    .iter()
+                    .map(|f| {
+                        let d = origin.ned_to(&core_nav::earth::GeoPoint::from_deg(
+                            f.lat_deg, f.lon_deg, f.height_m,
+                        ));
+                        (d.y, d.x)
+                    })
+                    .collect(),
+            );
+            g.markers = true;
+            map.series.push(g);
+        }
+        let name = if rotary { "rotary" } else { "conventional" };
+        let mut track = Series::line(
+            name,
+            run.rows
+                .iter()
+                .step_by(50)
+                .map(|r| (r.traj.ned_m[1], r.traj.ned_m[0]))
+                .collect(),
+        );
+        track.dashed = !rotary;
+        map.series.push(track);
+        let pts: Vec<(f64, f64)> = run
+            .rows
+            .iter()
+            .zip(&truth)
+            .step_by(50)
+            .map(|(r, t)| {
+                (
+                    r.traj.t_s,
+                    (r.traj.ned_m[0] - t.p_n_m[0]).hypot(r.traj.ned_m[1] - t.p_n_m[1]),
+                )
+            })
+            .collect();
+        err.series.push(Series::line(format!("{name} error"), pts));
+        let mut sig = Series::line(
+            format!("{name} 3-sigma"),
+            run.rows
+                .iter()
+                .step_by(50)
+                .map(|r| (r.traj.t_s, 3.0 * r.sigma_p_m[0].hypot(r.sigma_p_m[1])))
+                .collect(),
+        );
+        sig.dashed = true;
+        err.series.push(sig);
+    }
+    let mut out = map.write(&dir.join("drive_map"))?;
+    out.extend(err.write(&dir.join("drive_error"))?);
+    Ok(out)
+}

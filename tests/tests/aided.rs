@@ -1,0 +1,113 @@
+//! The aided rotary INS on a moving vehicle (hal-sim's drives, core-nav's
+//! filter, `rins::aided`): a drive's recording round-trips, the filter's
+//! covariance is honest against the simulated truth (NIS, NEES), the error
+//! at an outage's end stays inside what the filter says, and the rotary
+//! table beats the still one through long outages (NAV440, mean over
+//! drives). Figures from our own simulator only: no real drive with truth
+//! is in `../shared/data`.
+
+use hal_sim::drive::DriveKind;
+use hal_sim::imu::ImuSpec;
+use hal_sim::recording::Recording;
+use hal_sim::sim::simulate;
+use rins::aided::{self, AidedOptions};
+use rins::outages;
+
+fn opts(p: &ImuSpec) -> AidedOptions {
+    AidedOptions {
+        profile: p.clone(),
+        zupt: true,
+        gate_sigma: 6.0,
+    }
+}
+
+#[test]
+fn a_drive_recording_round_trips_with_its_gnss_and_truth() {
+    let p = ImuSpec::nav440();
+    let mut c = outages::config(DriveKind::City, &p, true, 4);
+    c.duration_s = 120.0;
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let dir = std::env::temp_dir().join(format!("rins-drive-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    rec.write(&dir).unwrap();
+    let back = Recording::read(&dir).unwrap();
+    let (a, b) = (rec.moving.as_ref().unwrap(), back.moving.as_ref().unwrap());
+    assert_eq!(a.gnss_meta, b.gnss_meta);
+    assert_eq!(a.longitude_deg, b.longitude_deg);
+    let (ga, gb) = (a.gnss.as_ref().unwrap(), b.gnss.as_ref().unwrap());
+    assert_eq!(ga.len(), gb.len());
+    // Written to 1e-9 deg (0.1 mm) and 1 mm: the file's precision.
+    for (x, y) in ga.iter().zip(gb) {
+        assert!((x.lat_deg - y.lat_deg).abs() < 1e-9 && (x.height_m - y.height_m).abs() < 1e-3);
+    }
+    assert_eq!(a.truth.as_ref().unwrap().len(), rec.imu.len());
+    // Without gnss.csv, --gnss says which file is missing.
+    std::fs::remove_file(dir.join("gnss.csv")).unwrap();
+    let no_gnss = Recording::read(&dir).unwrap();
+    let e = aided::navigate(&no_gnss, &opts(&p), &mut |_| {}).unwrap_err();
+    assert!(e.to_string().contains("gnss.csv"), "{e}");
+    // A malformed fix is an error naming the file and line.
+    std::fs::write(
+        dir.join("gnss.csv"),
+        "t_s,lat_deg,lon_deg,height_m,vn_mps,ve_mps,vd_mps,sigma_h_m,sigma_v_m,sigma_vel_mps\n1.0,30.5,114.3,20,0,0,0,1.5,3,0.05\n2.0,30.5,x,20,0,0,0,1.5,3,0.05\n",
+    )
+    .unwrap();
+    let e = Recording::read(&dir).unwrap_err();
+    assert_eq!(e.line, Some(3));
+    assert!(e.path.ends_with("gnss.csv"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_filter_is_honest_on_a_city_drive_with_outages() {
+    // NAV440, rotary at 30 deg/s, outages of 10-120 s. NIS per component
+    // within 0.7-1.3 (its mean over ~2,500 components has a 95 % band of
+    // about +-0.06 if the filter is right; the rest is the receiver model's
+    // and the unmodelled sensor terms' share), NEES inside its 95 % bounds
+    // at least 80 % of the seconds (a consistent filter: 95 %; measured
+    // 88-96 % on NAV440 drives, the gap is the sensor terms the filter does
+    // not carry: scale and misalignment of the other axes, g-sensitivity),
+    // every outage's end error within 3 sigma + 2 m of what the filter said.
+    let p = ImuSpec::nav440();
+    let rec = simulate(&outages::config(DriveKind::City, &p, true, 1), &mut |_| {}).unwrap();
+    let run = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
+    let s = aided::summary(&rec, &run);
+    print!("{}", s.text());
+    assert!(
+        (0.7..=1.3).contains(&s.nis_mean_per_dof),
+        "NIS {}",
+        s.nis_mean_per_dof
+    );
+    assert!(s.nees_in_95.unwrap() >= 0.8);
+    assert_eq!(s.outages.len(), outages::OUTAGES.len());
+    for g in &s.outages {
+        let e = g.end_error_m.unwrap();
+        assert!(e < 3.0 * g.end_sigma_m + 2.0, "{g:?}");
+    }
+    assert_eq!((s.faults, s.refused), (0, 0));
+    assert!(
+        s.zupts > 0,
+        "the drive has stops: zero-velocity updates expected"
+    );
+}
+
+#[test]
+fn the_rotary_table_beats_the_still_one_through_long_outages() {
+    // Six NAV440 city drives each way, the mean horizontal error at the end
+    // of the 60 s and 120 s outages (`rins outages` runs 20 for the
+    // README). The rotation turns the gyro biases across the table axis
+    // into sinusoids in n; the still table's biases tilt and turn the
+    // solution for the whole outage.
+    let s = outages::run(DriveKind::City, &[ImuSpec::nav440()], 6, 2, &|_| {}).unwrap();
+    for k in [2, 3] {
+        let (conv, rot) = (
+            s.mean_error("nav440", false, k),
+            s.mean_error("nav440", true, k),
+        );
+        println!("outage {k}: conventional {conv:.1} m, rotary {rot:.1} m");
+        assert!(
+            rot < conv,
+            "outage {k}: rotary {rot:.1} m, conventional {conv:.1} m"
+        );
+    }
+}
