@@ -1,0 +1,181 @@
+//! What an aided run shows: its errors against the truth (with GNSS and at
+//! the end of each outage), NIS and NEES against their 95 % bounds.
+
+use super::AidedRun;
+use hal_sim::recording::Recording;
+
+/// What a run shows against the truth and its own statistics.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct AidedSummary {
+    /// Horizontal error rms while fixes arrive, m (with truth).
+    pub h_rms_with_gnss_m: Option<f64>,
+    /// Per GNSS gap longer than 2 fix intervals: start s, length s,
+    /// horizontal error at its end and its largest, m (with truth), and the
+    /// filter's horizontal 1-sigma at its end, m.
+    pub outages: Vec<OutageError>,
+    /// Mean NIS per fix component and the fraction of fixes inside the
+    /// two-sided 95 % chi-square bounds of their components.
+    pub nis_mean_per_dof: f64,
+    /// See `nis_mean_per_dof`.
+    pub nis_in_95: f64,
+    /// Mean NEES per degree of freedom and the fraction inside its 95 %
+    /// bounds (5 dof), with truth.
+    pub nees_mean_per_dof: Option<f64>,
+    /// See `nees_mean_per_dof`.
+    pub nees_in_95: Option<f64>,
+    /// Zero-velocity updates, gate rejections, refusals, mechanization faults.
+    pub zupts: u32,
+    /// See `zupts`.
+    pub rejected: u32,
+    /// See `zupts`.
+    pub refused: u32,
+    /// See `zupts`.
+    pub faults: u32,
+}
+
+/// One outage's errors.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct OutageError {
+    /// Last fix before it, s.
+    pub start_s: f64,
+    /// Time to the next fix, s.
+    pub len_s: f64,
+    /// Horizontal error at its end (before the next fix), m.
+    pub end_error_m: Option<f64>,
+    /// Largest horizontal error inside it, m.
+    pub max_error_m: Option<f64>,
+    /// The filter's horizontal 1-sigma (rss of north and east) at its end, m.
+    pub end_sigma_m: f64,
+}
+
+/// Two-sided 95 % bounds of a chi-square with `k` degrees of freedom
+/// (Wilson-Hilferty), per degree of freedom.
+pub fn chi2_95_bounds(k: usize) -> (f64, f64) {
+    let k = k.max(1) as f64;
+    let a = 2.0 / (9.0 * k);
+    let q = |z: f64| (1.0 - a + z * a.sqrt()).powi(3);
+    (q(-1.959_964), q(1.959_964))
+}
+
+/// The summary of `run` on `rec` (errors only where `truth.csv` exists).
+pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
+    let truth = rec
+        .moving
+        .as_ref()
+        .and_then(|m| m.truth.as_deref())
+        .unwrap_or(&[]);
+    let h_err = |i: usize| -> Option<f64> {
+        let r = run.rows.get(i)?;
+        let tr = truth.get(i).filter(|x| (x.t_s - r.traj.t_s).abs() < 1e-6)?;
+        Some(
+            ((tr.p_n_m[0] - r.traj.ned_m[0]).powi(2) + (tr.p_n_m[1] - r.traj.ned_m[1]).powi(2))
+                .sqrt(),
+        )
+    };
+    let mut s = AidedSummary {
+        zupts: run.zupts,
+        rejected: run.rejected,
+        refused: run.refused,
+        faults: run.faults,
+        ..AidedSummary::default()
+    };
+    let fix_rows: Vec<usize> = (0..run.rows.len()).filter(|i| run.rows[*i].fix).collect();
+    let rate = rec
+        .moving
+        .as_ref()
+        .and_then(|m| m.gnss_meta)
+        .map_or(1.0, |g| g.rate_hz);
+    // With GNSS: rows within one fix interval after a fix.
+    let mut sq = vec![];
+    for w in fix_rows.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let gap = run.rows[b].traj.t_s - run.rows[a].traj.t_s;
+        if gap > 2.0 / rate {
+            let errs: Vec<f64> = (a + 1..b).filter_map(h_err).collect();
+            let last = run.rows.get(b - 1);
+            s.outages.push(OutageError {
+                start_s: run.rows[a].traj.t_s,
+                len_s: gap,
+                end_error_m: h_err(b - 1),
+                max_error_m: errs.iter().copied().reduce(f64::max),
+                end_sigma_m: last.map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1])),
+            });
+        } else {
+            sq.extend((a..b).filter_map(h_err).map(|e| e * e));
+        }
+    }
+    if !sq.is_empty() {
+        s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
+    }
+    let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
+    if !used.is_empty() {
+        let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
+        s.nis_mean_per_dof = used.iter().map(|x| x.1).sum::<f64>() / dof;
+        s.nis_in_95 = used
+            .iter()
+            .filter(|x| {
+                let (lo, hi) = chi2_95_bounds(x.2 as usize);
+                let v = x.1 / f64::from(x.2);
+                v >= lo && v <= hi
+            })
+            .count() as f64
+            / used.len() as f64;
+    }
+    if !run.nees.is_empty() {
+        let n = run.nees.len() as f64;
+        s.nees_mean_per_dof = Some(run.nees.iter().map(|x| x.1 / x.2 as f64).sum::<f64>() / n);
+        s.nees_in_95 = Some(
+            run.nees
+                .iter()
+                .filter(|x| {
+                    let (lo, hi) = chi2_95_bounds(x.2);
+                    let v = x.1 / x.2 as f64;
+                    v >= lo && v <= hi
+                })
+                .count() as f64
+                / n,
+        );
+    }
+    s
+}
+
+impl AidedSummary {
+    /// For a person.
+    pub fn text(&self) -> String {
+        let mut o = String::new();
+        if let Some(h) = self.h_rms_with_gnss_m {
+            o += &format!("horizontal error with GNSS: {h:.2} m rms\n");
+        }
+        for g in &self.outages {
+            o += &format!(
+                "GNSS outage at {:.0} s for {:.0} s: horizontal error at its end {} (largest {}), filter 1-sigma {:.1} m\n",
+                g.start_s,
+                g.len_s,
+                g.end_error_m.map_or("(no truth)".into(), |e| format!("{e:.1} m")),
+                g.max_error_m.map_or("-".into(), |e| format!("{e:.1} m")),
+                g.end_sigma_m
+            );
+        }
+        o += &format!(
+            "NIS per component {:.2} ({:.0} % of fixes inside their 95 % bounds)\n",
+            self.nis_mean_per_dof,
+            100.0 * self.nis_in_95
+        );
+        if let (Some(m), Some(f)) = (self.nees_mean_per_dof, self.nees_in_95) {
+            o += &format!(
+                "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds)\n",
+                100.0 * f
+            );
+        }
+        o += &format!(
+            "zero-velocity updates {}, gate rejections {}, refused {}, mechanization faults {}\n",
+            self.zupts, self.rejected, self.refused, self.faults
+        );
+        o
+    }
+
+    /// As JSON.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+}
