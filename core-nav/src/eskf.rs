@@ -1,19 +1,22 @@
 //! Error-state Kalman filter for the aided INS (loosely coupled GNSS,
 //! zero-velocity updates), `no_std`, fixed-size, generic over the float.
 //!
-//! # Error state (19)
+//! # Error state (27)
 //!
-//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3), dsk, dgp (3)]`, each
-//! **truth minus estimate**: `dp` the position error in `n` (north, east, down, m; the
+//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3), dgp (3), dM (9)]`,
+//! each **truth minus estimate**: `dp` the position error in `n` (north, east, down, m; the
 //! curvilinear offsets of [`crate::strapdown::NavState::p_n`]), `dv` the
 //! velocity error (NED, m/s), `phi` the attitude error as a small rotation in
 //! `n` (`c_s_n,true = (I + [phi x]) c_s_n,est`, rad), `dbg`, `dba` the gyro
-//! and accelerometer bias errors in `s` (rad/s, m/s^2), `dsk` the scale
-//! error of the gyro along the table axis `k` (1). The rotation makes the
-//! biases across the axis sinusoids in `n` that average out; what it cannot
-//! modulate is the gyro along its own axis, and there the table's rate
-//! times a scale error is a heading drift (30 deg/s x 3e-3 = 5 deg/min):
-//! the filter estimates it while fixes arrive (the encoder gives the rate).
+//! and accelerometer bias errors in `s` (rad/s, m/s^2), `dM` the gyro
+//! triad's scale and misalignment errors (row-major, 1: the gyros read
+//! `(I + M) w`). The rotation makes the biases across the table axis
+//! sinusoids in `n` that average out; what it cannot modulate is the gyro
+//! along its own axis, where the table's rate times a scale error is a
+//! heading drift (30 deg/s x 3e-3 = 5 deg/min), and the misalignments,
+//! which the vehicle's turns put into the level axes (a 90 deg turn with
+//! 0.9 % misalignment tilts the solution by 0.8 deg). The table's known
+//! rate makes them observable while fixes arrive.
 //! `dgp` is the receiver's slowly varying position error (NED, m): GNSS
 //! errors (multipath, atmosphere) are correlated over a minute, and a
 //! filter that takes every fix as independent averages them down to a
@@ -25,10 +28,9 @@
 //! ```text
 //! dp'  = dv
 //! dv'  = -[f_n x] phi - (2 w_ie_n + w_en_n) x dv - c_s_n dba - c_s_n n_a
-//! phi' = -w_in_n x phi - c_s_n dbg - c_s_n k (k . w_is_s) dsk - c_s_n n_g
+//! phi' = -w_in_n x phi - c_s_n dbg - c_s_n dM w_is_s - c_s_n n_g
 //! dbg' = -dbg / tau_g + w_g,   dba' = -dba / tau_a + w_a   (Gauss-Markov)
-//! dsk' = 0
-//! dgp' = -dgp / tau_gnss + w_gp
+//! dgp' = -dgp / tau_gnss + w_gp,   dM' = 0
 //! ```
 //!
 //! discretised as `Phi = I + F T + (F T)^2 / 2`, `Q_d` from the white noise
@@ -63,7 +65,7 @@ use crate::real::Real;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 19;
+pub const N: usize = 27;
 /// Index of `dp` in the error state.
 pub const I_P: usize = 0;
 /// Index of `dv`.
@@ -74,10 +76,10 @@ pub const I_PHI: usize = 6;
 pub const I_BG: usize = 9;
 /// Index of `dba`.
 pub const I_BA: usize = 12;
-/// Index of `dsk`, the table-axis gyro's scale error.
-pub const I_SK: usize = 15;
 /// Index of `dgp`, the receiver's correlated position error (NED).
-pub const I_GP: usize = 16;
+pub const I_GP: usize = 15;
+/// Index of `dM`, the gyro scale and misalignment errors (row-major).
+pub const I_M: usize = 18;
 
 /// Covariance of the error state.
 pub type Cov<T> = SMatrix<T, N, N>;
@@ -101,8 +103,10 @@ pub struct EskfConfig {
     pub accel_bias_tau_s: f64,
     /// Innovation gate per component, in sigmas of its predicted spread.
     pub gate_sigma: f64,
-    /// Initial 1-sigma of the table-axis gyro's scale error (1).
-    pub table_scale_sigma: f64,
+    /// Initial 1-sigma of the gyro scale errors (1).
+    pub gyro_scale_sigma: f64,
+    /// Initial 1-sigma of the gyro misalignments (rad).
+    pub gyro_misalignment_sigma: f64,
     /// The receiver's correlated position error: stationary 1-sigma,
     /// horizontal and vertical (m), and its correlation time (s).
     pub gnss_corr_sigma_m: [f64; 2],
@@ -155,11 +159,10 @@ pub struct Eskf<T: Real> {
     pub bias_g: Vector3<T>,
     /// Accelerometer bias estimate in `s`, m/s^2.
     pub bias_a: Vector3<T>,
-    /// Scale error estimate of the gyro along the table axis (1): correct
-    /// a sample by `w - bias_g - k (k . w) scale_k` ([`Self::correct_gyro`]).
-    pub scale_k: T,
-    /// The table axis in `s` (unit).
-    pub axis_s: Vector3<T>,
+    /// Gyro scale and misalignment estimate `M` (the gyros read `(I + M)
+    /// w`): a sample is corrected by `(w - bias_g) - M (w - bias_g)` to
+    /// first order ([`Self::correct_gyro`]).
+    pub gyro_m: Matrix3<T>,
     /// Estimate of the receiver's correlated position error, NED, m
     /// (decays with its correlation time between fixes).
     pub gnss_bias: Vector3<T>,
@@ -172,8 +175,8 @@ pub struct Eskf<T: Real> {
 
 impl<T: Real> Eskf<T> {
     /// A filter with diagonal initial covariance (biases at their
-    /// stationary sigma), for a table turning about `axis_s` (unit, in `s`).
-    pub fn new(cfg: EskfConfig, init: &InitialSigma, axis_s: Vector3<T>) -> Self {
+    /// stationary sigma).
+    pub fn new(cfg: EskfConfig, init: &InitialSigma) -> Self {
         let mut d = State::<T>::zeros();
         let block = |d: &mut State<T>, i: usize, v: Vector3<f64>| {
             d.fixed_rows_mut::<3>(i)
@@ -188,8 +191,17 @@ impl<T: Real> Eskf<T> {
         );
         block(&mut d, I_BG, Vector3::repeat(cfg.gyro_bias_sigma));
         block(&mut d, I_BA, Vector3::repeat(cfg.accel_bias_sigma));
-        if let Some(x) = d.get_mut(I_SK) {
-            *x = T::lit(cfg.table_scale_sigma * cfg.table_scale_sigma);
+        for r in 0..3 {
+            for c in 0..3 {
+                let sg = if r == c {
+                    cfg.gyro_scale_sigma
+                } else {
+                    cfg.gyro_misalignment_sigma
+                };
+                if let Some(x) = d.get_mut(I_M + 3 * r + c) {
+                    *x = T::lit(sg * sg);
+                }
+            }
         }
         let [gh, gv] = cfg.gnss_corr_sigma_m;
         block(&mut d, I_GP, Vector3::new(gh, gh, gv));
@@ -199,8 +211,7 @@ impl<T: Real> Eskf<T> {
             dx: State::zeros(),
             bias_g: Vector3::zeros(),
             bias_a: Vector3::zeros(),
-            scale_k: T::zero(),
-            axis_s,
+            gyro_m: Matrix3::zeros(),
             gnss_bias: Vector3::zeros(),
             cfg,
             rejected: 0,
@@ -229,8 +240,13 @@ impl<T: Real> Eskf<T> {
         put(&mut f, I_V, I_BA, &(-c_s_n));
         put(&mut f, I_PHI, I_PHI, &(-skew(&(w_ie_n + w_en_n))));
         put(&mut f, I_PHI, I_BG, &(-c_s_n));
-        let col = -(c_s_n * self.axis_s) * self.axis_s.dot(w_is_s);
-        f.fixed_view_mut::<3, 1>(I_PHI, I_SK).copy_from(&col);
+        // d(phi')/d(M_rc) = -c_s_n e_r w_c: a 3x3 block per row of M.
+        for (r, col_r) in c_s_n.column_iter().enumerate() {
+            for (c, wc) in w_is_s.iter().enumerate() {
+                f.fixed_view_mut::<3, 1>(I_PHI, I_M + 3 * r + c)
+                    .copy_from(&(-col_r * *wc));
+            }
+        }
         let gm = |tau: f64| {
             if tau > 0.0 {
                 Matrix3::identity() * T::lit(-1.0 / tau)
@@ -402,19 +418,25 @@ impl<T: Real> Eskf<T> {
         let out = (v(I_P), v(I_V), v(I_PHI));
         self.bias_g += v(I_BG);
         self.bias_a += v(I_BA);
-        if let Some(x) = self.dx.get(I_SK) {
-            self.scale_k += *x;
+        for r in 0..3 {
+            for c in 0..3 {
+                if let (Some(m), Some(x)) =
+                    (self.gyro_m.get_mut((r, c)), self.dx.get(I_M + 3 * r + c))
+                {
+                    *m += *x;
+                }
+            }
         }
         self.gnss_bias += v(I_GP);
         self.dx = State::zeros();
         out
     }
 
-    /// A raw gyro sample corrected by the estimates: `w - bias_g - k (k . w)
-    /// scale_k`, rad/s in `s`.
+    /// A raw gyro sample corrected by the estimates: `(w - bias_g) - M (w -
+    /// bias_g)`, rad/s in `s`.
     pub fn correct_gyro(&self, w_is_s: &Vector3<T>) -> Vector3<T> {
         let w = w_is_s - self.bias_g;
-        w - self.axis_s * (self.axis_s.dot(&w) * self.scale_k)
+        w - self.gyro_m * w
     }
 
     /// A raw accelerometer sample corrected by the estimate, m/s^2 in `s`.

@@ -19,7 +19,8 @@ fn cfg() -> EskfConfig {
         accel_bias_sigma: 0.01,
         accel_bias_tau_s: 300.0,
         gate_sigma: 1e6,
-        table_scale_sigma: 3e-3,
+        gyro_scale_sigma: 3e-3,
+        gyro_misalignment_sigma: 1e-3,
         gnss_corr_sigma_m: [1.0, 2.0],
         gnss_corr_tau_s: 60.0,
     }
@@ -37,7 +38,7 @@ fn init() -> InitialSigma {
 /// A filter with some cross-covariance: a few predicts on a moving,
 /// turning state.
 fn warmed() -> Eskf<f64> {
-    let mut f = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
+    let mut f = Eskf::<f64>::new(cfg(), &init());
     let w_ie = earth_rate_n(0.5f64, 0.866);
     for k in 0..50 {
         let c = *Rotation3::from_euler_angles(0.1, -0.05, 0.02 * k as f64).matrix();
@@ -118,7 +119,6 @@ fn a_position_fix_on_a_diagonal_prior_is_the_scalar_closed_form() {
             ..cfg()
         },
         &init(),
-        Vector3::z(),
     );
     let a = 9.0;
     let r = 2.25;
@@ -175,7 +175,7 @@ fn the_error_dynamics_follow_the_mechanization() {
     // Estimate: c_s_n,est = (I - [phi0 x]) c_s_n,true.
     let q_est = rotvec_to_quat(&(-phi0)) * q0;
     let mut est = Strapdown::new(scfg, origin, Vector3::zeros(), q_est, &sample(0, true)).unwrap();
-    let mut f = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
+    let mut f = Eskf::<f64>::new(cfg(), &init());
     f.dx[I_PHI] = phi0.x;
     f.dx[I_PHI + 1] = phi0.y;
     f.dx[I_PHI + 2] = phi0.z;
@@ -232,8 +232,8 @@ fn the_f32_board_filter_follows_its_f64_twin() {
     // relative, the corrections within 1e-3 of their size (f32 keeps ~7
     // digits; a 15x15 Joseph update loses at most ~2 of them with these
     // conditionings).
-    let mut a = Eskf::<f64>::new(cfg(), &init(), Vector3::z());
-    let mut b = Eskf::<f32>::new(cfg(), &init(), Vector3::z());
+    let mut a = Eskf::<f64>::new(cfg(), &init());
+    let mut b = Eskf::<f32>::new(cfg(), &init());
     let w_ie = earth_rate_n(0.5f64, 0.866);
     for k in 0..600 {
         let c = *Rotation3::from_euler_angles(
@@ -278,7 +278,7 @@ fn the_f32_board_filter_follows_its_f64_twin() {
 
 #[test]
 fn bad_measurements_are_refused_and_counted() {
-    let mut f = Eskf::<f32>::new(cfg(), &init(), Vector3::z());
+    let mut f = Eskf::<f32>::new(cfg(), &init());
     let p0 = f.p;
     assert!(f
         .update_position(
@@ -299,7 +299,6 @@ fn bad_measurements_are_refused_and_counted() {
             ..cfg()
         },
         &init(),
-        Vector3::z(),
     );
     let rep = g
         .update_position(

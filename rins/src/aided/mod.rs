@@ -111,7 +111,8 @@ pub fn filter_config(p: &ImuSpec, gate_sigma: f64) -> EskfConfig {
         accel_bias_sigma: (a.bias * a.bias + a.bias_instability * a.bias_instability).sqrt(),
         accel_bias_tau_s: 3600.0,
         gate_sigma,
-        table_scale_sigma: g.scale.max(1e-5),
+        gyro_scale_sigma: g.scale.max(1e-5),
+        gyro_misalignment_sigma: g.misalignment.max(1e-5),
         gnss_corr_sigma_m: [GNSS_CORR_SHARE.sqrt() * 1.5, GNSS_CORR_SHARE.sqrt() * 3.0],
         gnss_corr_tau_s: 60.0,
     }
@@ -171,7 +172,6 @@ pub fn navigate(
             level_rad: 0.5f64.to_radians(),
             heading_rad: 2f64.to_radians(),
         },
-        k_axis,
     );
     let mut run = AidedRun::default();
     let truth = mv.truth.as_deref().unwrap_or(&[]);
