@@ -53,8 +53,19 @@ pub struct OutageStudy {
     pub runs: Vec<DriveResult>,
 }
 
-/// The simulation of one drive.
+/// The simulation of one drive with the study's outages.
 pub fn config(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> SimConfig {
+    config_with(kind, imu, rotary, seed, &OUTAGES)
+}
+
+/// The simulation of one drive with `outages` (start s, length s).
+pub fn config_with(
+    kind: DriveKind,
+    imu: &ImuSpec,
+    rotary: bool,
+    seed: u64,
+    outages: &[(f64, f64)],
+) -> SimConfig {
     let mut c = SimConfig::new(imu.clone(), Axis::Z, DRIVE_S);
     c.scheme = if rotary {
         Scheme::Continuous {
@@ -67,7 +78,7 @@ pub fn config(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> SimCon
     c.drive = Some(DriveSpec {
         kind,
         gnss: GnssSpec {
-            outages: OUTAGES.to_vec(),
+            outages: outages.to_vec(),
             ..GnssSpec::default()
         },
         longitude_deg: 114.35,
