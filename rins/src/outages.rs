@@ -151,6 +151,7 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
         profile: imu.clone(),
         zupt: true,
         gate_sigma: 6.0,
+        f32: false,
     };
     let run = aided::navigate(&rec, &opt, &mut |_| {})?;
     let s = aided::summary(&rec, &run);
@@ -295,6 +296,7 @@ pub fn plots(
                 profile: imu.clone(),
                 zupt: true,
                 gate_sigma: 6.0,
+                f32: false,
             },
             &mut |_| {},
         )?;

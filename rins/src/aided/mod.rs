@@ -18,12 +18,13 @@ use anyhow::{bail, Result};
 use core_nav::attitude::{dcm_to_quat, quat_to_dcm, quat_to_euler};
 use core_nav::earth::{earth_rate_n, transport_rate_n, GeoPoint};
 use core_nav::eskf::{Eskf, EskfConfig, InitialSigma, I_P, I_PHI, I_V};
+use core_nav::real::Real;
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig};
 use core_nav::table::q_s_b;
 use hal_sim::imu::ImuSpec;
 use hal_sim::recording::Recording;
 use hal_sim::track::EncoderTrack;
-use nalgebra::Vector3;
+use nalgebra::{Quaternion, Vector3};
 
 use crate::nav::TrajRow;
 
@@ -57,6 +58,8 @@ pub struct AidedOptions {
     pub zupt: bool,
     /// Innovation gate, sigmas.
     pub gate_sigma: f64,
+    /// Mechanization and filter in f32, as on the board (else f64).
+    pub f32: bool,
 }
 
 /// One output row: trajectory-v1 and the filter's 1-sigma.
@@ -128,6 +131,20 @@ pub fn navigate(
     opt: &AidedOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<AidedRun> {
+    if opt.f32 {
+        navigate_t::<f32>(rec, opt, progress)
+    } else {
+        navigate_t::<f64>(rec, opt, progress)
+    }
+}
+
+/// [`navigate`] with the mechanization and the filter in `T` (f32 as on
+/// the board); the bookkeeping (fixes, truth, output) in f64.
+fn navigate_t<T: Real>(
+    rec: &Recording,
+    opt: &AidedOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<AidedRun> {
     let m = &rec.meta;
     let Some(mv) = &rec.moving else {
         bail!("not a moving-base recording ([base] moving = true in meta.toml): --gnss needs one")
@@ -144,10 +161,13 @@ pub fn navigate(
     let origin = GeoPoint::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
     let c_s_b = |t: f64| quat_to_dcm(&q_s_b(m.axis, track.angle(t)));
     let to_us = |t: f64| (t * 1e6).round().max(0.0) as u64;
-    let sample = |k: usize, kf: Option<&Eskf<f64>>| {
+    let sample = |k: usize, kf: Option<&Eskf<T>>| {
         let r = &rec.imu[k];
-        let (w, f) = (Vector3::from(r.gyro_radps), Vector3::from(r.accel_mps2));
-        ImuSample::<f64> {
+        let (w, f) = (
+            Vector3::from(r.gyro_radps).map(T::lit),
+            Vector3::from(r.accel_mps2).map(T::lit),
+        );
+        ImuSample::<T> {
             t_us: to_us(r.t_s),
             w_is_s: kf.map_or(w, |kf| kf.correct_gyro(&w)),
             f_s: kf.map_or(f, |kf| kf.correct_accel(&f)),
@@ -161,10 +181,14 @@ pub fn navigate(
         gravity_mps2: m.gravity_mps2,
         ..StrapdownConfig::default()
     };
-    let mut nav = Strapdown::<f64>::new(cfg, origin, Vector3::zeros(), q0, &sample(0, None))
+    let q0 = Quaternion::from(q0.coords.map(T::lit));
+    let mut nav = Strapdown::<T>::new(cfg, origin, Vector3::zeros(), q0, &sample(0, None))
         .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
     let earth = *nav.earth();
-    let mut kf = Eskf::<f64>::new(
+    let (rm_h0, rn_h0_cos) = (earth.rm_h0.to_f64(), earth.rn_h0_cos.to_f64());
+    let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
+    let tv = |v: &Vector3<f64>| v.map(T::lit);
+    let mut kf = Eskf::<T>::new(
         filter_config(&opt.profile, opt.gate_sigma),
         &InitialSigma {
             position_m: 1.0,
@@ -200,17 +224,18 @@ pub fn navigate(
                 &w_ie,
                 &w_en,
                 &s.w_is_s,
-                t - prev_t,
+                T::lit(t - prev_t),
             );
         }
         let st = *nav.state();
-        let c_s_n = quat_to_dcm(&st.q_s_n);
+        let (p_n, v_n) = (f64v(&st.p_n), f64v(&st.v_n));
+        let c_s_n = quat_to_dcm(&st.q_s_n).map(|x| x.to_f64());
         let csb = c_s_b(t);
         let c_b_n = c_s_n * csb.transpose();
         // The base's rotation and the specific force, table removed.
         let rate = track.at(t).rate;
-        let w_ib_b = csb * (s.w_is_s - k_axis * rate);
-        let f_b = csb * s.f_s;
+        let w_ib_b = csb * (f64v(&s.w_is_s) - k_axis * rate);
+        let f_b = csb * f64v(&s.f_s);
         if window.len() == ZUPT_WINDOW {
             window.pop_front();
         }
@@ -228,28 +253,28 @@ pub fn navigate(
                 continue;
             }
             let p_fix = Vector3::new(
-                (f.lat_deg.to_radians() - origin.lat_rad) * earth.rm_h0,
-                (f.lon_deg.to_radians() - origin.lon_rad) * earth.rn_h0_cos,
+                (f.lat_deg.to_radians() - origin.lat_rad) * rm_h0,
+                (f.lon_deg.to_radians() - origin.lon_rad) * rn_h0_cos,
                 origin.height_m - f.height_m,
             );
             let l_n = c_b_n * lever_b;
-            let zp = p_fix - (st.p_n + l_n);
-            let v_ant = st.v_n + c_b_n * w_ib_b.cross(&lever_b);
+            let zp = p_fix - (p_n + l_n);
+            let v_ant = v_n + c_b_n * w_ib_b.cross(&lever_b);
             let zv = Vector3::from(f.v_n_mps) - v_ant;
             let sp = Vector3::new(f.sigma_h_m, f.sigma_h_m, f.sigma_v_m)
                 * (1.0 - GNSS_CORR_SHARE).sqrt();
             let sv = Vector3::repeat(f.sigma_vel_mps);
             let (mut nis, mut used) = (0.0, 0u8);
-            match kf.update_position(&zp, &l_n, &sp) {
+            match kf.update_position(&tv(&zp), &tv(&l_n), &tv(&sp)) {
                 Ok(r) => {
-                    nis += r.nis;
+                    nis += r.nis.to_f64();
                     used += r.used;
                 }
                 Err(_) => run.refused += 1,
             }
-            match kf.update_velocity(&zv, &sv) {
+            match kf.update_velocity(&tv(&zv), &tv(&sv)) {
                 Ok(r) => {
-                    nis += r.nis;
+                    nis += r.nis.to_f64();
                     used += r.used;
                 }
                 Err(_) => run.refused += 1,
@@ -260,7 +285,7 @@ pub fn navigate(
         if still
             && k % 10 == 0
             && kf
-                .update_velocity(&(-st.v_n), &Vector3::repeat(ZUPT_SIGMA_MPS))
+                .update_velocity(&(-st.v_n), &Vector3::repeat(T::lit(ZUPT_SIGMA_MPS)))
                 .is_ok()
         {
             run.zupts += 1;
@@ -272,15 +297,22 @@ pub fn navigate(
             }
         }
         let st = *nav.state();
-        let c_b_n = quat_to_dcm(&st.q_s_n) * c_s_b(t).transpose();
+        let c_b_n = quat_to_dcm(&st.q_s_n).map(|x| x.to_f64()) * c_s_b(t).transpose();
         let e = quat_to_euler(&dcm_to_quat(&c_b_n));
         let ned = origin.ned_to(&earth.point_at(&st.p_n));
-        let sig = |i: usize| [kf.sigma(i), kf.sigma(i + 1), kf.sigma(i + 2)];
+        let v_n = f64v(&st.v_n);
+        let sig = |i: usize| {
+            [
+                kf.sigma(i).to_f64(),
+                kf.sigma(i + 1).to_f64(),
+                kf.sigma(i + 2).to_f64(),
+            ]
+        };
         run.rows.push(AidedRow {
             traj: TrajRow {
                 t_s: t,
                 ned_m: [ned.x, ned.y, ned.z],
-                v_mps: [st.v_n.x, st.v_n.y, st.v_n.z],
+                v_mps: [v_n.x, v_n.y, v_n.z],
                 rph_deg: [
                     e.roll.to_degrees(),
                     e.pitch.to_degrees(),
@@ -305,12 +337,13 @@ pub fn navigate(
                 let e = nalgebra::SVector::<f64, 5>::from_column_slice(&[
                     tr.p_n_m[0] - ned.x,
                     tr.p_n_m[1] - ned.y,
-                    tr.v_n_mps[0] - st.v_n.x,
-                    tr.v_n_mps[1] - st.v_n.y,
-                    tr.v_n_mps[2] - st.v_n.z,
+                    tr.v_n_mps[0] - v_n.x,
+                    tr.v_n_mps[1] - v_n.y,
+                    tr.v_n_mps[2] - v_n.z,
                 ]);
                 let idx = [I_P, I_P + 1, I_V, I_V + 1, I_V + 2];
-                let p5 = nalgebra::SMatrix::<f64, 5, 5>::from_fn(|r, c| kf.p[(idx[r], idx[c])]);
+                let p5 =
+                    nalgebra::SMatrix::<f64, 5, 5>::from_fn(|r, c| kf.p[(idx[r], idx[c])].to_f64());
                 if let Some(ch) = p5.cholesky() {
                     let x = ch.solve(&e);
                     run.nees.push((t, e.dot(&x), 5));

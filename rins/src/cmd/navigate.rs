@@ -143,6 +143,7 @@ fn run_aided(a: &Args, rec: &hal_sim::recording::Recording) -> Result<()> {
         profile,
         zupt: !a.no_zupt,
         gate_sigma: 6.0,
+        f32: a.f32,
     };
     let pb = progress_bar("navigate --gnss");
     let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
