@@ -109,6 +109,19 @@ pub struct ImuRow {
     pub temp_c: Option<f64>,
 }
 
+impl ImuRow {
+    /// Channel `ch` in the order of `imu.csv` (0-2 gyro x-z, rad/s; 3-5
+    /// accelerometer x-z, m/s^2); NaN for any other index.
+    pub fn channel(&self, ch: usize) -> f64 {
+        let v = if ch < 3 {
+            self.gyro_radps.get(ch)
+        } else {
+            self.accel_mps2.get(ch.wrapping_sub(3))
+        };
+        v.copied().unwrap_or(f64::NAN)
+    }
+}
+
 /// One row of `table.csv`: the unwrapped encoder angle (rad) at `t_s`.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct TableRow {
@@ -171,6 +184,11 @@ fn err(path: &Path, line: Option<usize>, message: impl Into<String>) -> Recordin
 }
 
 impl Recording {
+    /// Channel `ch` of every IMU row ([`ImuRow::channel`]).
+    pub fn channel(&self, ch: usize) -> Vec<f64> {
+        self.imu.iter().map(|r| r.channel(ch)).collect()
+    }
+
     /// Reads a recording directory.
     ///
     /// # Errors

@@ -22,17 +22,7 @@ fn white_noise_recovers_arw_and_vrw_by_allan() {
     cfg.set_effect("accel_vrw", vrw).unwrap();
     let rec = simulate(&cfg, &mut |_| {}).unwrap();
     for ch in 0..6 {
-        let y: Vec<f64> = rec
-            .imu
-            .iter()
-            .map(|r| {
-                if ch < 3 {
-                    r.gyro_radps[ch]
-                } else {
-                    r.accel_mps2[ch - 3]
-                }
-            })
-            .collect();
+        let y = rec.channel(ch);
         let want = if ch < 3 { arw } else { vrw };
         let a = oadev(&y, 0.01, 100).unwrap();
         let n = a.adev * a.tau_s.sqrt();

@@ -34,17 +34,7 @@ pub fn compute(rec: &Recording) -> Vec<ChannelAllan> {
     let tau0 = 1.0 / rec.meta.imu_rate_hz;
     (0..6)
         .map(|c| {
-            let y: Vec<f64> = rec
-                .imu
-                .iter()
-                .map(|r| {
-                    if c < 3 {
-                        r.gyro_radps[c]
-                    } else {
-                        r.accel_mps2[c - 3]
-                    }
-                })
-                .collect();
+            let y = rec.channel(c);
             let points: Vec<AdevPoint> = octave_factors(y.len(), MIN_TERMS)
                 .filter_map(|m| oadev(&y, tau0, m))
                 .collect();

@@ -9,7 +9,7 @@ use core_nav::earth::GeoPoint;
 use core_nav::real::{wrap_pi, Real};
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig, VerticalChannel};
 use core_nav::table::{q_b_n, q_s_b, EncoderInterpolator, TableAngle};
-use hal_sim::recording::{Recording, SampleKind};
+use hal_sim::recording::{Meta, Recording, SampleKind};
 use nalgebra::{Quaternion, Vector3};
 
 /// How to navigate.
@@ -52,6 +52,31 @@ pub struct TrajRow {
     pub faults: u32,
 }
 
+/// A recording's clock on the mechanization's: sample time (s) to µs, an
+/// averaged sample (`[imu] sample = "average"`) moved to its interval's
+/// middle.
+pub fn clock_us(m: &Meta) -> impl Fn(f64) -> u64 {
+    let shift_us = match m.imu_sample {
+        SampleKind::Instantaneous => 0,
+        SampleKind::Average => (0.5e6 / m.imu_rate_hz).round() as u64,
+    };
+    move |t: f64| ((t * 1e6).round().max(0.0) as u64).saturating_sub(shift_us)
+}
+
+/// The mechanization's settings for a recording: up to 5 missed samples,
+/// its measured gravity, the vertical channel free or held.
+pub fn strapdown_config(m: &Meta, hold_height: bool) -> StrapdownConfig {
+    StrapdownConfig {
+        max_dt_us: (6e6 / m.imu_rate_hz) as u64,
+        vertical: if hold_height {
+            VerticalChannel::HoldHeight
+        } else {
+            VerticalChannel::Free
+        },
+        gravity_mps2: m.gravity_mps2,
+    }
+}
+
 /// Navigates `rec`.
 ///
 /// # Errors
@@ -81,12 +106,7 @@ fn navigate_t<T: Real>(
     if rec.table.is_empty() {
         bail!("the recording has no encoder angles (table.csv is empty)");
     }
-    // Averaged samples represent the interval's middle: shift by half a step.
-    let shift_us = match m.imu_sample {
-        SampleKind::Instantaneous => 0,
-        SampleKind::Average => (0.5e6 / m.imu_rate_hz).round() as u64,
-    };
-    let to_us = |t: f64| ((t * 1e6).round().max(0.0) as u64).saturating_sub(shift_us);
+    let to_us = clock_us(m);
     let enc_period_us = (1e6 / m.encoder_rate_hz).round() as u64;
     let mut enc = EncoderInterpolator::<T>::new(2 * enc_period_us);
     let mut enc_rows = rec.table.iter().peekable();
@@ -130,15 +150,7 @@ fn navigate_t<T: Real>(
             .map(|&(i, o)| q_s_b_gimbals(i, o))
     };
     let q0 = euler_to_quat(&base) * gimbal(first).unwrap_or_else(|| q_s_b(m.axis, theta0.to_f64()));
-    let cfg = StrapdownConfig {
-        max_dt_us: (6e6 / m.imu_rate_hz) as u64,
-        vertical: if opt.hold_height {
-            VerticalChannel::HoldHeight
-        } else {
-            VerticalChannel::Free
-        },
-        gravity_mps2: m.gravity_mps2,
-    };
+    let cfg = strapdown_config(m, opt.hold_height);
     let mut nav = Strapdown::<T>::new(
         cfg,
         origin,

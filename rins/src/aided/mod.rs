@@ -19,7 +19,7 @@ use core_nav::attitude::{dcm_to_quat, quat_to_dcm, quat_to_euler};
 use core_nav::earth::{earth_rate_n, transport_rate_n, GeoPoint};
 use core_nav::eskf::{Eskf, EskfConfig, InitialSigma, I_P, I_PHI, I_V};
 use core_nav::real::Real;
-use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig};
+use core_nav::strapdown::{ImuSample, Strapdown};
 use core_nav::table::q_s_b;
 use hal_sim::imu::ImuSpec;
 use hal_sim::recording::Recording;
@@ -160,7 +160,7 @@ fn navigate_t<T: Real>(
     let k_axis = m.axis.unit::<f64>();
     let origin = GeoPoint::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
     let c_s_b = |t: f64| quat_to_dcm(&q_s_b(m.axis, track.angle(t)));
-    let to_us = |t: f64| (t * 1e6).round().max(0.0) as u64;
+    let to_us = crate::nav::clock_us(m);
     let sample = |k: usize, kf: Option<&Eskf<T>>| {
         let r = &rec.imu[k];
         let (w, f) = (
@@ -176,11 +176,7 @@ fn navigate_t<T: Real>(
     let c_b_n0 = core_nav::site::c_b_n(&m.base());
     let t0 = rec.imu[0].t_s;
     let q0 = dcm_to_quat(&(c_b_n0 * c_s_b(t0)));
-    let cfg = StrapdownConfig {
-        max_dt_us: (6e6 / m.imu_rate_hz) as u64,
-        gravity_mps2: m.gravity_mps2,
-        ..StrapdownConfig::default()
-    };
+    let cfg = crate::nav::strapdown_config(m, false);
     let q0 = Quaternion::from(q0.coords.map(T::lit));
     let mut nav = Strapdown::<T>::new(cfg, origin, Vector3::zeros(), q0, &sample(0, None))
         .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;

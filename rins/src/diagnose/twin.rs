@@ -69,19 +69,6 @@ impl Closeness {
     }
 }
 
-fn channel(rec: &Recording, ch: usize) -> Vec<f64> {
-    rec.imu
-        .iter()
-        .map(|r| {
-            if ch < 3 {
-                r.gyro_radps[ch]
-            } else {
-                r.accel_mps2[ch - 3]
-            }
-        })
-        .collect()
-}
-
 fn block_len(rec: &Recording) -> usize {
     let n = rec.imu.len();
     let dt = match (rec.imu.first(), rec.imu.last()) {
@@ -121,8 +108,8 @@ pub fn closeness_to(rec: &Recording, twins: &[Recording]) -> Closeness {
     let len = block_len(rec);
     let mut c = Closeness::default();
     for ch in 0..6 {
-        let r = blocks(&channel(rec, ch), len);
-        let tw: Vec<Vec<f64>> = twins.iter().map(|t| blocks(&channel(t, ch), len)).collect();
+        let r = blocks(&rec.channel(ch), len);
+        let tw: Vec<Vec<f64>> = twins.iter().map(|t| blocks(&t.channel(ch), len)).collect();
         let ms = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64;
         let rt: Vec<f64> = tw.iter().map(|t| rms_diff(&r, t)).collect();
         let mut tt = vec![];
@@ -324,9 +311,9 @@ fn residuals(rec: &Recording, twin: &Recording, part: &[usize], theta: &[f64]) -
     };
     let res: Vec<Vec<f64>> = (0..6)
         .map(|ch| {
-            channel(rec, ch)
+            rec.channel(ch)
                 .iter()
-                .zip(channel(twin, ch))
+                .zip(twin.channel(ch))
                 .map(|(a, b)| a - b)
                 .collect()
         })
