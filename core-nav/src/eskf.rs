@@ -167,6 +167,11 @@ pub struct Eskf<T: Real> {
     /// (decays with its correlation time between fixes).
     pub gnss_bias: Vector3<T>,
     cfg: EskfConfig,
+    /// The interval's integrals not yet propagated into `P`.
+    pending: Pending<T>,
+    /// Predictions gathered into one covariance propagation (1: every
+    /// prediction propagates).
+    pub batch: u32,
     /// Measurement components rejected by the gate so far.
     pub rejected: u32,
     /// Updates refused (non-finite input) so far.
@@ -214,6 +219,8 @@ impl<T: Real> Eskf<T> {
             gyro_m: Matrix3::zeros(),
             gnss_bias: Vector3::zeros(),
             cfg,
+            pending: Pending::default(),
+            batch: 1,
             rejected: 0,
             refused: 0,
         }
@@ -230,26 +237,30 @@ impl<T: Real> Eskf<T> {
         w_en_n: &Vector3<T>,
         w_is_s: &Vector3<T>,
     ) -> Cov<T> {
+        let mut p = Pending::default();
+        p.add(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, T::one());
+        self.system_integral(&p)
+    }
+
+    /// `F` integrated over the pending interval: `F` is linear in `c_s_n`,
+    /// `f_n`, the rates and `c_s_n e_r w_c`, so its integral is `F` of
+    /// their integrals.
+    fn system_integral(&self, q: &Pending<T>) -> Cov<T> {
         let mut f = Cov::<T>::zeros();
         let put = |f: &mut Cov<T>, r: usize, c: usize, m: &Matrix3<T>| {
             f.fixed_view_mut::<3, 3>(r, c).copy_from(m);
         };
-        put(&mut f, I_P, I_V, &Matrix3::identity());
-        put(&mut f, I_V, I_PHI, &(-skew(f_n)));
-        put(&mut f, I_V, I_V, &(-skew(&(w_ie_n * T::lit(2.0) + w_en_n))));
-        put(&mut f, I_V, I_BA, &(-c_s_n));
-        put(&mut f, I_PHI, I_PHI, &(-skew(&(w_ie_n + w_en_n))));
-        put(&mut f, I_PHI, I_BG, &(-c_s_n));
+        put(&mut f, I_P, I_V, &(Matrix3::identity() * q.dt));
+        put(&mut f, I_V, I_PHI, &(-skew(&q.f_n)));
+        put(&mut f, I_V, I_V, &(-skew(&(q.w_ie * T::lit(2.0) + q.w_en))));
+        put(&mut f, I_V, I_BA, &(-q.c_s_n));
+        put(&mut f, I_PHI, I_PHI, &(-skew(&(q.w_ie + q.w_en))));
+        put(&mut f, I_PHI, I_BG, &(-q.c_s_n));
         // d(phi')/d(M_rc) = -c_s_n e_r w_c: a 3x3 block per row of M.
-        for (r, col_r) in c_s_n.column_iter().enumerate() {
-            for (c, wc) in w_is_s.iter().enumerate() {
-                f.fixed_view_mut::<3, 1>(I_PHI, I_M + 3 * r + c)
-                    .copy_from(&(-col_r * *wc));
-            }
-        }
+        f.fixed_view_mut::<3, 9>(I_PHI, I_M).copy_from(&(-q.cw));
         let gm = |tau: f64| {
             if tau > 0.0 {
-                Matrix3::identity() * T::lit(-1.0 / tau)
+                Matrix3::identity() * (q.dt * T::lit(-1.0 / tau))
             } else {
                 Matrix3::zeros()
             }
@@ -260,8 +271,14 @@ impl<T: Real> Eskf<T> {
         f
     }
 
-    /// Propagates the covariance over `dt_s` (see [`Self::system`] for the
-    /// arguments): `P = Phi P Phi^T + Q_d`, symmetrised.
+    /// Predicts over `dt_s` (see [`Self::system`] for the arguments). The
+    /// system's integrals are gathered over [`Self::batch`] predictions
+    /// and then propagated at once ([`Self::propagate`]; an update
+    /// propagates what is pending first): `P = Phi P Phi^T + Q_d`,
+    /// symmetrised, with `Phi = I + A + A^2 / 2`, `A` the integral of `F`
+    /// over the interval. (With `F` varying in the interval the dropped
+    /// commutator terms are of order `|F|^2 T^2` times its relative change:
+    /// at 0.1 s and a table turning 3 deg, below f32's resolution of `P`.)
     pub fn predict(
         &mut self,
         c_s_n: &Matrix3<T>,
@@ -271,8 +288,24 @@ impl<T: Real> Eskf<T> {
         w_is_s: &Vector3<T>,
         dt_s: T,
     ) {
-        let ft = self.system(c_s_n, f_n, w_ie_n, w_en_n, w_is_s) * dt_s;
-        let phi = Cov::<T>::identity() + ft + ft * ft * T::lit(0.5);
+        self.pending.add(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s);
+        if self.pending.n >= self.batch.max(1) {
+            self.propagate();
+        }
+    }
+
+    /// Propagates the covariance over the pending interval (nothing when
+    /// none is pending).
+    pub fn propagate(&mut self) {
+        if self.pending.n == 0 {
+            return;
+        }
+        let q = self.pending;
+        self.pending = Pending::default();
+        let dt_s = q.dt;
+        let ft = self.system_integral(&q);
+        // Phi = I + B, B = A + A^2 / 2 (A sparse: ~80 of 729 entries).
+        let b = ft + mul_bt(&ft, &ft.transpose()) * T::lit(0.5);
         let bias_q = |sigma: f64, tau: f64| {
             if tau > 0.0 {
                 2.0 * sigma * sigma / tau
@@ -297,15 +330,42 @@ impl<T: Real> Eskf<T> {
             T::lit(bias_q(gh, c.gnss_corr_tau_s)) * dt_s,
             T::lit(bias_q(gv, c.gnss_corr_tau_s)) * dt_s,
         ));
-        let p = phi * self.p * phi.transpose() + Cov::<T>::from_diagonal(&qd);
+        // Phi P Phi^T = P + B P + (B P)^T + B P B^T, with B's zeros
+        // skipped: P B^T = (B P)^T (P symmetric), then B P B^T = (B P) B^T.
+        let mt = mul_bt(&self.p, &b);
+        let x = mul_bt(&mt.transpose(), &b);
         // The error estimate propagates too (it is zero in closed loop), and
         // the receiver error's estimate decays.
-        self.dx = phi * self.dx;
+        self.dx += b * self.dx;
+        // P + M + M^T + X + Q_d, element by element, X symmetrised; each
+        // pair summed so (i, j) and (j, i) get the same bits.
+        let half = T::lit(0.5);
+        let (mtt, xt) = (mt.transpose(), x.transpose());
+        for (((col, m1), m2), (x1, x2)) in self
+            .p
+            .as_mut_slice()
+            .chunks_exact_mut(N)
+            .zip(mt.as_slice().chunks_exact(N))
+            .zip(mtt.as_slice().chunks_exact(N))
+            .zip(
+                x.as_slice()
+                    .chunks_exact(N)
+                    .zip(xt.as_slice().chunks_exact(N)),
+            )
+        {
+            for ((((pij, a), b), c), d) in col.iter_mut().zip(m1).zip(m2).zip(x1).zip(x2) {
+                *pij += (*a + *b) + (*c + *d) * half;
+            }
+        }
+        for (i, q) in qd.iter().enumerate() {
+            if let Some(pii) = self.p.get_mut((i, i)) {
+                *pii += *q;
+            }
+        }
         if self.cfg.gnss_corr_tau_s > 0.0 {
             let decay = T::one() - dt_s * T::lit(1.0 / self.cfg.gnss_corr_tau_s);
             self.gnss_bias *= decay.max(T::zero());
         }
-        self.p = (p + p.transpose()) * T::lit(0.5);
     }
 
     /// One scalar measurement `z = h dx + v`, `Var v = r`: the Joseph-form
@@ -323,6 +383,7 @@ impl<T: Real> Eskf<T> {
             self.refused += 1;
             return Err(FilterError::BadSigma);
         }
+        self.propagate();
         let ph = self.p * h;
         let s = h.dot(&ph) + r;
         let innov = z - h.dot(&self.dx);
@@ -333,10 +394,29 @@ impl<T: Real> Eskf<T> {
         }
         let k = ph / s;
         self.dx += k * innov;
-        // Joseph: (I - k h) P (I - k h)^T + k r k^T.
-        let ikh = Cov::<T>::identity() - k * h.transpose();
-        let p = ikh * self.p * ikh.transpose() + k * k.transpose() * r;
-        self.p = (p + p.transpose()) * T::lit(0.5);
+        // Joseph: (I - k h) P (I - k h)^T + k r k^T, each product by
+        // `I - k h` taken as the rank-one change it is (O(n^2), not two
+        // dense O(n^3) products): A = (I - k h) P = P - k ph^T (P
+        // symmetric), A h = ph - k (h ph), and the result A - (A h) k^T +
+        // r k k^T, element by element and symmetrised.
+        let hph = h.dot(&ph);
+        let ah = ph - k * hph;
+        // P is kept symmetric to the bit (each pair below is summed so (i,
+        // j) and (j, i) get the same result), so A[i, j] reads P[i, j].
+        let half = T::lit(0.5);
+        for ((col, (&kj, &phj)), &ahj) in self
+            .p
+            .as_mut_slice()
+            .chunks_exact_mut(N)
+            .zip(k.as_slice().iter().zip(ph.as_slice()))
+            .zip(ah.as_slice())
+        {
+            let rows = k.as_slice().iter().zip(ph.as_slice()).zip(ah.as_slice());
+            for (x, ((&ki, &phi), &ahi)) in col.iter_mut().zip(rows) {
+                let sym = ((ki * phj + kj * phi) + (ahi * kj + ahj * ki)) * half;
+                *x = *x - sym + r * (ki * kj);
+            }
+        }
         Ok(Some(innov * innov / s))
     }
 
@@ -453,6 +533,83 @@ impl<T: Real> Eskf<T> {
             .max(T::zero())
             .sqrt_cr()
     }
+}
+
+/// The integrals over a prediction interval of what the system matrix
+/// depends on (each `x dt`, so `F` of them is `F`'s integral).
+#[derive(Clone, Copy, Debug)]
+struct Pending<T: Real> {
+    c_s_n: Matrix3<T>,
+    f_n: Vector3<T>,
+    w_ie: Vector3<T>,
+    w_en: Vector3<T>,
+    /// Column `3 r + c`: `c_s_n e_r w_c`.
+    cw: SMatrix<T, 3, 9>,
+    dt: T,
+    n: u32,
+}
+
+impl<T: Real> Default for Pending<T> {
+    fn default() -> Self {
+        Self {
+            c_s_n: Matrix3::zeros(),
+            f_n: Vector3::zeros(),
+            w_ie: Vector3::zeros(),
+            w_en: Vector3::zeros(),
+            cw: SMatrix::zeros(),
+            dt: T::zero(),
+            n: 0,
+        }
+    }
+}
+
+impl<T: Real> Pending<T> {
+    fn add(
+        &mut self,
+        c_s_n: &Matrix3<T>,
+        f_n: &Vector3<T>,
+        w_ie: &Vector3<T>,
+        w_en: &Vector3<T>,
+        w_is_s: &Vector3<T>,
+        dt: T,
+    ) {
+        self.c_s_n += c_s_n * dt;
+        self.f_n += f_n * dt;
+        self.w_ie += w_ie * dt;
+        self.w_en += w_en * dt;
+        for (r, col_r) in c_s_n.column_iter().enumerate() {
+            for (c, wc) in w_is_s.iter().enumerate() {
+                let mut dst = self.cw.fixed_view_mut::<3, 1>(0, 3 * r + c);
+                dst += col_r * (*wc * dt);
+            }
+        }
+        self.dt += dt;
+        self.n += 1;
+    }
+}
+
+/// `src b^T`, skipping `b`'s zeros: column `i` of the product is the sum
+/// of `src`'s columns `k` weighted by `b[(i, k)]`. The error dynamics are
+/// sparse, so this is a few thousand multiply-adds instead of a dense
+/// product's 19,683 (27^3).
+fn mul_bt<T: Real>(src: &Cov<T>, b: &Cov<T>) -> Cov<T> {
+    let mut out = Cov::<T>::zeros();
+    // Row i of b is column i of b^T (contiguous).
+    let bt = b.transpose();
+    for (out_col, b_row) in out
+        .as_mut_slice()
+        .chunks_exact_mut(N)
+        .zip(bt.as_slice().chunks_exact(N))
+    {
+        for (&v, src_col) in b_row.iter().zip(src.as_slice().chunks_exact(N)) {
+            if v != T::zero() {
+                for (o, x) in out_col.iter_mut().zip(src_col) {
+                    *o += v * *x;
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The unit vector along axis `i` (0, 1, 2; zero for any other).

@@ -56,6 +56,7 @@
     )
 )]
 
+pub mod aided;
 pub mod align;
 pub mod allan;
 pub mod attitude;

@@ -231,6 +231,14 @@ impl<T: Real> EncoderInterpolator<T> {
         self.last
     }
 
+    /// The table rate between the two latest encoder samples, rad/s
+    /// (`None` before two samples).
+    pub fn rate(&self) -> Option<T> {
+        let ((t0, a0), (t1, a1)) = (self.prev?, self.last?);
+        let dt = T::lit(t1.saturating_sub(t0) as f64 * 1e-6);
+        Some(a1.minus(&a0) / dt)
+    }
+
     /// The table angle at `t_us`.
     ///
     /// # Errors

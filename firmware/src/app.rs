@@ -18,6 +18,7 @@ use crate::icm42688::{DataFault, DataMonitor, RawSample, Sample};
 use crate::telemetry::{
     frame, reason, Command, Decoder, FrameError, Telemetry, MAX_FRAME, MAX_PAYLOAD,
 };
+use core_nav::aided::{AidedConfig, AidedNav, OriginE7};
 use core_nav::attitude::{euler_to_quat, Euler};
 use core_nav::calib::{solve, Checks, GyroCalibration, Phase, PhaseAccumulator, Unknowns};
 use core_nav::control::{MotorModel, RateController};
@@ -64,6 +65,22 @@ pub struct AppConfig {
     pub control_period_us: u64,
     /// The navigation period, µs (100 Hz).
     pub nav_period_us: u64,
+    /// Aided navigation on a moving vehicle (`None`: a static base, as
+    /// above). With it the board skips the power-up calibration (the
+    /// vehicle need not stand still: the filter estimates the gyro and
+    /// accelerometer errors), starts the table at once and navigates from
+    /// the first sample with an encoder angle, taking GNSS fixes over the
+    /// command link ([`Command::GnssFix`]).
+    pub aided: Option<BoardAided>,
+}
+
+/// The board's aided-navigation settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoardAided {
+    /// Where the vehicle powers up (the navigation origin).
+    pub origin: OriginE7,
+    /// The filter, the antenna lever arm, zero-velocity updates.
+    pub cfg: AidedConfig,
 }
 
 impl Default for AppConfig {
@@ -89,6 +106,7 @@ impl Default for AppConfig {
             nav_every: 10,
             control_period_us: 1_000,
             nav_period_us: 10_000,
+            aided: None,
         }
     }
 }
@@ -197,6 +215,7 @@ pub struct App {
     /// The accepted calibration minus `previous`: (bias rad/s, `M k`).
     pub change: Option<(Vector3<f64>, Vector3<f64>)>,
     nav: Option<Strapdown<f32>>,
+    aided: Option<AidedNav<f32>>,
     nav_count: u32,
     last_imu_us: Option<u64>,
     rate_meas: f32,
@@ -244,6 +263,7 @@ impl App {
             previous: None,
             change: None,
             nav: None,
+            aided: None,
             nav_count: 0,
             last_imu_us: None,
             rate_meas: 0.0,
@@ -286,7 +306,12 @@ impl App {
 
     /// The navigation state (while navigating).
     pub fn nav(&self) -> Option<&Strapdown<f32>> {
-        self.nav.as_ref()
+        self.aided.as_ref().map(AidedNav::nav).or(self.nav.as_ref())
+    }
+
+    /// The aided navigator (while navigating with it).
+    pub fn aided(&self) -> Option<&AidedNav<f32>> {
+        self.aided.as_ref()
     }
 
     fn emit(&mut self, t: Telemetry) {
@@ -417,6 +442,7 @@ impl App {
         let w = Vector3::from(s.gyro_radps);
         let f = Vector3::from(s.accel_mps2);
         match self.mode {
+            Mode::CalStatic(_) if self.cfg.aided.is_some() => self.start_aided(t_us, s, angle),
             Mode::CalStatic(t0) => {
                 if self.static_acc.push(t_us, &w, &f, angle).is_err() {
                     self.fault(t_us, Fault::NavRefused);
@@ -585,12 +611,44 @@ impl App {
         }
     }
 
+    /// Aided: navigation starts at the first sample with an encoder
+    /// angle, from the configured origin and vehicle attitude; the table
+    /// starts turning.
+    fn start_aided(&mut self, t_us: u64, s: &Sample, angle: TableAngle<f32>) {
+        let Some(a) = self.cfg.aided else { return };
+        if self.enc.latest().is_none() {
+            return;
+        }
+        let [r, p, h] = self.cfg.base_deg;
+        let q = euler_to_quat(&Euler::<f64>::from_deg(r, p, h));
+        let q_b_n = Quaternion::from(q.coords.map(|x| x as f32));
+        let cfg = StrapdownConfig {
+            gravity_mps2: None,
+            ..StrapdownConfig::default()
+        };
+        let first = self.imu_sample(t_us, s);
+        match AidedNav::new(cfg, a.origin, &q_b_n, &angle, &first, a.cfg) {
+            Ok(n) => {
+                self.aided = Some(n);
+                self.start_scheme(t_us, angle);
+                self.mode = Mode::Navigating;
+            }
+            Err(_) => self.fault(t_us, Fault::NavRefused),
+        }
+    }
+
     fn navigate(&mut self, t_us: u64, s: &Sample, angle: TableAngle<f32>) {
         let sample = self.imu_sample(t_us, s);
-        let Some(nav) = self.nav.as_mut() else { return };
-        match nav.step(&sample) {
+        let step = if let Some(a) = self.aided.as_mut() {
+            let rate = self.enc.rate().unwrap_or(0.0);
+            a.step(&sample, &angle, rate).map(|_| *a.nav().state())
+        } else if let Some(nav) = self.nav.as_mut() {
+            nav.step(&sample).copied()
+        } else {
+            return;
+        };
+        match step {
             Ok(st) => {
-                let st = *st;
                 self.nav_count = self.nav_count.wrapping_add(1);
                 if self.nav_count.is_multiple_of(self.cfg.nav_every.max(1)) {
                     let q = q_b_n(&st.q_s_n, Axis::Z, angle.rad);
@@ -743,10 +801,20 @@ impl App {
                 self.scheme_t0 = None;
                 0
             }
+            // The aided filter estimates the gyro errors itself, and a
+            // restart would lose the vehicle's position: refused.
+            Command::Recalibrate if self.aided.is_some() => reason::AIDED,
             Command::Recalibrate => {
                 self.restart_calibration(t_us);
                 0
             }
+            Command::GnssFix(f) => match self.aided.as_mut() {
+                Some(a) => {
+                    a.gnss(&f);
+                    0
+                }
+                None => reason::NOT_AIDED,
+            },
             Command::SetScheme {
                 kind,
                 rate_dps,

@@ -1,18 +1,35 @@
 //! A recording replayed through the board's logic (the QEMU test): a
-//! fixed-size binary stream of IMU samples and encoder reads, little-endian,
-//! and a trailer with the host's result of the same replay.
+//! binary stream of IMU samples, encoder reads and GNSS fixes,
+//! little-endian, and a trailer with the host's result of the same replay.
 //!
 //! ```text
-//! header:  "RPLY" | u32 version (1) | u32 records | f64 lat_deg | f64 height_m
+//! header:  "RPLY" | u32 version (2) | u32 records | f64 lat_deg | f64 height_m
 //!          | 3 x f64 base roll, pitch, heading (deg) | f64 rate (rad/s) | u32 counts/rev
-//! record:  u8 kind (1 IMU, 2 encoder) | u64 t_us | 7 x u32 words
-//!          IMU: gyro xyz, accel xyz (f32 bits), temp (f32 bits)
-//!          encoder: the 16-bit hardware count in word 0
+//!          | u32 aided (0 / 1) | f64 lon_deg | 3 x f64 antenna in b (m)
+//!          | 12 x f64 filter: gyro ARW, accel VRW, gyro bias sigma, tau,
+//!            accel bias sigma, tau, gate, gyro scale sigma, misalignment
+//!            sigma, GNSS correlated sigma h, v, tau (the units of
+//!            core_nav::eskf::EskfConfig)
+//!          | 4 x f64 initial sigma: position, velocity, level, heading
+//!          | u32 zero-velocity updates (0 / 1)
+//! record:  u8 kind | u64 t_us | words (u32), as many as the kind has:
+//!          1 IMU (7): gyro xyz, accel xyz (f32 bits), temp (f32 bits)
+//!          2 encoder (7): the 16-bit hardware count in word 0
+//!          3 GNSS fix (9): lat, lon (1e-7 deg), height (mm), v_n xyz (mm/s)
+//!            as i32; sigma h, v (mm), sigma velocity (mm/s) as u32. It
+//!            goes to the board as a command frame over the link.
 //! trailer: u8 mode (3 = navigating) | 3 x f32 p_n | 3 x f32 v_n (bits)
 //! ```
 
+use crate::app::{AppConfig, BoardAided};
+use core_nav::aided::{AidedConfig, GnssFix, OriginE7};
+use core_nav::eskf::{EskfConfig, InitialSigma};
+use core_nav::table::Axis;
+
 /// Bytes in the header.
-pub const HEADER: usize = 12 + 6 * 8 + 4;
+pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 12 + 4) * 8 + 4;
+/// The format's version.
+pub const VERSION: u32 = 2;
 
 /// The board's configuration for the replay (the header's fields).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,12 +46,15 @@ pub struct Header {
     pub rate_radps: f64,
     /// Encoder counts per revolution.
     pub counts_per_rev: u32,
+    /// Aided navigation (a moving vehicle with GNSS): the site's longitude
+    /// (deg) and the navigator's settings.
+    pub aided: Option<(f64, AidedConfig)>,
 }
 
 impl Header {
     /// The board's configuration.
-    pub fn config(&self) -> crate::app::AppConfig {
-        crate::app::AppConfig {
+    pub fn config(&self) -> AppConfig {
+        AppConfig {
             lat_deg: self.lat_deg,
             height_m: self.height_m,
             base_deg: self.base_deg,
@@ -42,8 +62,46 @@ impl Header {
             scheme: core_nav::scheme::Scheme::Continuous {
                 rate: self.rate_radps,
             },
-            ..crate::app::AppConfig::default()
+            aided: self.aided.map(|(lon_deg, cfg)| BoardAided {
+                origin: OriginE7::from_deg(self.lat_deg, lon_deg, self.height_m),
+                cfg,
+            }),
+            ..AppConfig::default()
         }
+    }
+
+    /// The header's f64 fields after the fixed ones, in order.
+    fn aided_f64(&self) -> [f64; 20] {
+        let mut v = [0.0; 20];
+        if let Some((lon, c)) = self.aided {
+            let e = &c.eskf;
+            let i = &c.initial;
+            let [ax, ay, az] = c.antenna_b_m;
+            let [gh, gv] = e.gnss_corr_sigma_m;
+            v = [
+                lon,
+                ax,
+                ay,
+                az,
+                e.gyro_arw,
+                e.accel_vrw,
+                e.gyro_bias_sigma,
+                e.gyro_bias_tau_s,
+                e.accel_bias_sigma,
+                e.accel_bias_tau_s,
+                e.gate_sigma,
+                e.gyro_scale_sigma,
+                e.gyro_misalignment_sigma,
+                gh,
+                gv,
+                e.gnss_corr_tau_s,
+                i.position_m,
+                i.velocity_mps,
+                i.level_rad,
+                i.heading_rad,
+            ];
+        }
+        v
     }
 
     /// Encodes the header.
@@ -57,7 +115,7 @@ impl Header {
             n += b.len();
         };
         put(&MAGIC);
-        put(&1u32.to_le_bytes());
+        put(&VERSION.to_le_bytes());
         put(&self.records.to_le_bytes());
         for v in [
             self.lat_deg,
@@ -70,18 +128,59 @@ impl Header {
             put(&v.to_le_bytes());
         }
         put(&self.counts_per_rev.to_le_bytes());
+        put(&u32::from(self.aided.is_some()).to_le_bytes());
+        for v in self.aided_f64() {
+            put(&v.to_le_bytes());
+        }
+        let zupt = self.aided.is_some_and(|(_, c)| c.zupt);
+        put(&u32::from(zupt).to_le_bytes());
         r
     }
 
     /// Decodes a header; `None` on a wrong magic or version.
     pub fn decode(r: &[u8]) -> Option<Self> {
-        if r.get(..4)? != MAGIC || word(r, 4) != 1 {
+        if r.get(..4)? != MAGIC || word(r, 4) != VERSION {
             return None;
         }
         let f = |i: usize| -> Option<f64> {
             let mut a = [0u8; 8];
             a.copy_from_slice(r.get(12 + 8 * i..20 + 8 * i)?);
             Some(f64::from_le_bytes(a))
+        };
+        // The aided block's f64s start after the u32 flag at byte 64.
+        let g = |i: usize| -> Option<f64> {
+            let mut a = [0u8; 8];
+            a.copy_from_slice(r.get(68 + 8 * i..76 + 8 * i)?);
+            Some(f64::from_le_bytes(a))
+        };
+        let aided = if word(r, 64) == 1 {
+            let cfg = AidedConfig {
+                eskf: EskfConfig {
+                    gyro_arw: g(4)?,
+                    accel_vrw: g(5)?,
+                    gyro_bias_sigma: g(6)?,
+                    gyro_bias_tau_s: g(7)?,
+                    accel_bias_sigma: g(8)?,
+                    accel_bias_tau_s: g(9)?,
+                    gate_sigma: g(10)?,
+                    gyro_scale_sigma: g(11)?,
+                    gyro_misalignment_sigma: g(12)?,
+                    gnss_corr_sigma_m: [g(13)?, g(14)?],
+                    gnss_corr_tau_s: g(15)?,
+                },
+                initial: InitialSigma {
+                    position_m: g(16)?,
+                    velocity_mps: g(17)?,
+                    level_rad: g(18)?,
+                    heading_rad: g(19)?,
+                },
+                axis: Axis::Z,
+                antenna_b_m: [g(1)?, g(2)?, g(3)?],
+                zupt: word(r, 68 + 8 * 20) == 1,
+            };
+            Some((g(0)?, cfg))
+        } else {
+            None
         };
         Some(Self {
             records: word(r, 8),
@@ -90,15 +189,28 @@ impl Header {
             base_deg: [f(2)?, f(3)?, f(4)?],
             rate_radps: f(5)?,
             counts_per_rev: word(r, 60),
+            aided,
         })
     }
 }
-/// Bytes per record.
-pub const RECORD: usize = 1 + 8 + 28;
+
+/// Bytes of a record's kind and time stamp.
+pub const RECORD_HEAD: usize = 1 + 8;
+/// Bytes of the longest record.
+pub const RECORD_MAX: usize = RECORD_HEAD + 4 * 9;
 /// Bytes in the trailer.
 pub const TRAILER: usize = 1 + 24;
 /// The magic.
 pub const MAGIC: [u8; 4] = *b"RPLY";
+
+/// Bytes of a record of `kind` after its head (`None`: an unknown kind).
+pub fn record_body(kind: u8) -> Option<usize> {
+    match kind {
+        1 | 2 => Some(4 * 7),
+        3 => Some(4 * 9),
+        _ => None,
+    }
+}
 
 /// One replayed event.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -121,6 +233,13 @@ pub enum Event {
         /// 16-bit counter.
         hw: u16,
     },
+    /// A GNSS fix arriving over the command link.
+    Gnss {
+        /// µs (when it arrives).
+        t_us: u64,
+        /// The fix.
+        fix: GnssFix,
+    },
 }
 
 /// The result a replay ends with.
@@ -142,47 +261,68 @@ fn word(b: &[u8], i: usize) -> u32 {
     u32::from_le_bytes(a)
 }
 
-/// Encodes one event.
-pub fn encode(e: &Event) -> [u8; RECORD] {
-    let mut r = [0u8; RECORD];
-    let (kind, t_us, words) = match *e {
+/// Encodes one event into `out`; returns its length.
+pub fn encode(e: &Event, out: &mut [u8; RECORD_MAX]) -> usize {
+    let mut words = [0u32; 9];
+    let (kind, t_us) = match *e {
         Event::Imu {
             t_us,
             gyro,
             accel,
             temp,
-        } => (
-            1u8,
-            t_us,
-            [
-                gyro[0].to_bits(),
-                gyro[1].to_bits(),
-                gyro[2].to_bits(),
-                accel[0].to_bits(),
-                accel[1].to_bits(),
-                accel[2].to_bits(),
-                temp.to_bits(),
-            ],
-        ),
-        Event::Encoder { t_us, hw } => (2u8, t_us, [u32::from(hw), 0, 0, 0, 0, 0, 0]),
+        } => {
+            for (w, v) in words.iter_mut().zip(gyro.iter().chain(accel.iter())) {
+                *w = v.to_bits();
+            }
+            if let Some(w) = words.get_mut(6) {
+                *w = temp.to_bits();
+            }
+            (1u8, t_us)
+        }
+        Event::Encoder { t_us, hw } => {
+            words[0] = u32::from(hw);
+            (2u8, t_us)
+        }
+        Event::Gnss { t_us, fix: f } => {
+            let v = f.v_n_mmps;
+            words = [
+                f.lat_e7 as u32,
+                f.lon_e7 as u32,
+                f.height_mm as u32,
+                v[0] as u32,
+                v[1] as u32,
+                v[2] as u32,
+                f.sigma_h_mm,
+                f.sigma_v_mm,
+                f.sigma_vel_mmps,
+            ];
+            (3u8, t_us)
+        }
     };
-    r[0] = kind;
-    r[1..9].copy_from_slice(&t_us.to_le_bytes());
+    *out = [0u8; RECORD_MAX];
+    out[0] = kind;
+    out[1..9].copy_from_slice(&t_us.to_le_bytes());
     for (k, w) in words.iter().enumerate() {
-        if let Some(dst) = r.get_mut(9 + 4 * k..13 + 4 * k) {
+        if let Some(dst) = out.get_mut(9 + 4 * k..13 + 4 * k) {
             dst.copy_from_slice(&w.to_le_bytes());
         }
     }
-    r
+    RECORD_HEAD + record_body(kind).unwrap_or(0)
 }
 
-/// Decodes one event; `None` for an unknown kind.
+/// Decodes one event (head and body); `None` for an unknown kind or a
+/// short record.
 pub fn decode(r: &[u8]) -> Option<Event> {
     let mut t = [0u8; 8];
     t.copy_from_slice(r.get(1..9)?);
     let t_us = u64::from_le_bytes(t);
-    let f = |k: usize| f32::from_bits(word(r, 9 + 4 * k));
-    match r.first()? {
+    let kind = *r.first()?;
+    if r.len() < RECORD_HEAD + record_body(kind)? {
+        return None;
+    }
+    let w = |k: usize| word(r, 9 + 4 * k);
+    let f = |k: usize| f32::from_bits(w(k));
+    match kind {
         1 => Some(Event::Imu {
             t_us,
             gyro: [f(0), f(1), f(2)],
@@ -191,9 +331,20 @@ pub fn decode(r: &[u8]) -> Option<Event> {
         }),
         2 => Some(Event::Encoder {
             t_us,
-            hw: word(r, 9) as u16,
+            hw: w(0) as u16,
         }),
-        _ => None,
+        _ => Some(Event::Gnss {
+            t_us,
+            fix: GnssFix {
+                lat_e7: w(0) as i32,
+                lon_e7: w(1) as i32,
+                height_mm: w(2) as i32,
+                v_n_mmps: [w(3) as i32, w(4) as i32, w(5) as i32],
+                sigma_h_mm: w(6),
+                sigma_v_mm: w(7),
+                sigma_vel_mmps: w(8),
+            },
+        }),
     }
 }
 
@@ -219,7 +370,9 @@ pub fn decode_outcome(r: &[u8]) -> Outcome {
     }
 }
 
-/// Runs the events through `app` (what both the host and the QEMU build do).
+/// Runs the events through `app` (what both the host and the QEMU build
+/// do). A GNSS fix goes in as the host would send it: a command frame over
+/// the link.
 pub fn step(app: &mut crate::app::App, e: &Event) {
     match *e {
         Event::Imu {
@@ -250,9 +403,19 @@ pub fn step(app: &mut crate::app::App, e: &Event) {
             app.on_imu(t_us, &raw, &s);
         }
         Event::Encoder { t_us, hw } => app.on_encoder(t_us, hw),
+        Event::Gnss { t_us, fix } => {
+            let mut p = [0u8; crate::telemetry::MAX_PAYLOAD];
+            let mut f = [0u8; crate::telemetry::MAX_FRAME];
+            let seq = (t_us / 1_000) as u16;
+            let n = crate::telemetry::Command::GnssFix(fix)
+                .payload(seq, &mut p)
+                .and_then(|n| crate::telemetry::frame(p.get(..n).unwrap_or(&[]), &mut f));
+            if let Ok(n) = n {
+                app.on_rx(t_us, f.get(..n).unwrap_or(&[]));
+            }
+        }
     }
 }
-
 /// The outcome of `app` now.
 pub fn outcome(app: &crate::app::App) -> Outcome {
     match app.nav() {

@@ -118,6 +118,9 @@ pub enum Command {
     Stop,
     /// Run the power-up calibration again.
     Recalibrate,
+    /// A GNSS fix for the aided filter (the receiver's integer units:
+    /// 1e-7 deg, mm, mm/s; the fix is used at the next navigation sample).
+    GnssFix(core_nav::aided::GnssFix),
 }
 
 /// Why a frame or command was refused.
@@ -148,6 +151,7 @@ const C_SCHEME: u8 = 0x81;
 const C_START: u8 = 0x82;
 const C_STOP: u8 = 0x83;
 const C_RECAL: u8 = 0x84;
+const C_GNSS: u8 = 0x85;
 
 /// A little-endian writer into a fixed buffer.
 struct LeWriter<'a> {
@@ -375,6 +379,16 @@ pub mod reason {
     pub const BAD_COUNT: u8 = 3;
     /// Unknown command or malformed frame.
     pub const MALFORMED: u8 = 4;
+    /// A GNSS fix out of range: latitude beyond +-90 deg, longitude beyond
+    /// +-180 deg, a sigma zero.
+    pub const BAD_FIX: u8 = 5;
+    /// A GNSS fix while the board is not navigating with the aided filter
+    /// (not configured for it, or still starting).
+    pub const NOT_AIDED: u8 = 6;
+    /// Not available while the aided filter navigates (`Recalibrate`: the
+    /// filter estimates the gyro errors itself, and a restart would lose
+    /// the vehicle's position).
+    pub const AIDED: u8 = 7;
 }
 
 impl Command {
@@ -393,9 +407,21 @@ impl Command {
             Command::Start => C_START,
             Command::Stop => C_STOP,
             Command::Recalibrate => C_RECAL,
+            Command::GnssFix(_) => C_GNSS,
         };
         w.bytes(&[code]);
         w.bytes(&seq.to_le_bytes());
+        if let Command::GnssFix(f) = self {
+            for v in [f.lat_e7, f.lon_e7, f.height_mm]
+                .iter()
+                .chain(f.v_n_mmps.iter())
+            {
+                w.bytes(&v.to_le_bytes());
+            }
+            for v in [f.sigma_h_mm, f.sigma_v_mm, f.sigma_vel_mmps] {
+                w.bytes(&v.to_le_bytes());
+            }
+        }
         if let Command::SetScheme {
             kind,
             rate_dps,
@@ -442,6 +468,31 @@ impl Command {
             C_START => Command::Start,
             C_STOP => Command::Stop,
             C_RECAL => Command::Recalibrate,
+            C_GNSS => {
+                let mut i = [0i32; 6];
+                for x in i.iter_mut() {
+                    *x = r.u32()? as i32;
+                }
+                let [lat_e7, lon_e7, height_mm, vn, ve, vd] = i;
+                let f = core_nav::aided::GnssFix {
+                    lat_e7,
+                    lon_e7,
+                    height_mm,
+                    v_n_mmps: [vn, ve, vd],
+                    sigma_h_mm: r.u32()?,
+                    sigma_v_mm: r.u32()?,
+                    sigma_vel_mmps: r.u32()?,
+                };
+                if lat_e7.unsigned_abs() > 900_000_000
+                    || lon_e7.unsigned_abs() > 1_800_000_000
+                    || f.sigma_h_mm == 0
+                    || f.sigma_v_mm == 0
+                    || f.sigma_vel_mmps == 0
+                {
+                    return Err(FrameError::OutOfBounds(reason::BAD_FIX));
+                }
+                Command::GnssFix(f)
+            }
             other => return Err(FrameError::UnknownType(other)),
         };
         r.end()?;

@@ -1,6 +1,7 @@
 //! Telemetry framing: CRC check value, COBS round trips, every frame type,
 //! corruption, loss and overflow counted, commands bounds-checked.
 
+use core_nav::aided::GnssFix;
 use firmware::telemetry::{
     cobs_decode, cobs_encode, crc16, frame, reason, Command, Decoder, FrameError, Telemetry,
     MAX_FRAME, MAX_PAYLOAD,
@@ -197,6 +198,46 @@ fn commands_are_bounds_checked() {
     }
     assert!(Command::parse(&[0x82]).is_err(), "truncated");
     assert!(Command::parse(&[0x82, 1, 0, 7]).is_err(), "trailing byte");
+
+    // A GNSS fix round-trips (negative longitude and down velocity too);
+    // out-of-range coordinates and zero sigmas are refused with BAD_FIX.
+    let fix = GnssFix {
+        lat_e7: 305_300_000,
+        lon_e7: -1_143_000_000,
+        height_mm: 20_000,
+        v_n_mmps: [12_345, -6_789, -15],
+        sigma_h_mm: 1_500,
+        sigma_v_mm: 3_000,
+        sigma_vel_mmps: 50,
+    };
+    assert_eq!(enc(Command::GnssFix(fix)), Ok((1, Command::GnssFix(fix))));
+    for bad in [
+        GnssFix {
+            lat_e7: 900_000_001,
+            ..fix
+        },
+        GnssFix {
+            lon_e7: i32::MIN,
+            ..fix
+        },
+        GnssFix {
+            sigma_h_mm: 0,
+            ..fix
+        },
+        GnssFix {
+            sigma_vel_mmps: 0,
+            ..fix
+        },
+    ] {
+        assert_eq!(
+            enc(Command::GnssFix(bad)),
+            Err(FrameError::OutOfBounds(reason::BAD_FIX)),
+            "{bad:?}"
+        );
+    }
+    let mut p = [0u8; MAX_PAYLOAD];
+    let n = Command::GnssFix(fix).payload(1, &mut p).unwrap();
+    assert!(Command::parse(&p[..n - 1]).is_err(), "truncated fix");
 }
 
 proptest! {

@@ -1,26 +1,22 @@
 //! Aided navigation of a moving-base recording (`rins navigate REC
-//! --gnss`): core-nav's strapdown mechanization of the spinning sensor,
-//! core-nav's error-state Kalman filter ([`core_nav::eskf`]) with the GNSS
-//! fixes of `gnss.csv` (antenna lever arm through the table angle) and
-//! zero-velocity updates when the vehicle stands still, closed loop. Output:
-//! trajectory-v1 rows plus the filter's 1-sigma, and the fixes' NIS.
+//! --gnss`): the recording's samples, encoder track and GNSS fixes through
+//! core-nav's aided navigator ([`core_nav::aided::AidedNav`]: the strapdown
+//! mechanization of the spinning sensor, the error-state Kalman filter,
+//! GNSS position and velocity with the antenna lever arm through the table
+//! angle, zero-velocity updates; the same code the board runs). Output:
+//! trajectory-v1 rows plus the filter's 1-sigma, the fixes' NIS and, on
+//! simulated runs, the NEES against `truth.csv`.
 //!
-//! The base attitude `c_b_n = c_s_n c_b_s(theta)` and the table rate come
-//! from the encoder (hal-sim's [`hal_sim::track::EncoderTrack`]).
-//!
-//! **Zero velocity** is detected from the IMU with the table's own rotation
-//! removed: over the last [`ZUPT_WINDOW`] samples the base's rotation
-//! `|c_s_b (w_is_s - theta_dot k)|` stays under [`ZUPT_GYRO_RADPS`] and the
-//! specific force's spread under [`ZUPT_ACCEL_MPS2`]: a moving car shakes
-//! (road and engine vibration) and turns; a parked one does neither.
+//! The table angle and rate come from the encoder (hal-sim's
+//! [`hal_sim::track::EncoderTrack`]).
 
 use anyhow::{bail, Result};
-use core_nav::attitude::{dcm_to_quat, quat_to_dcm, quat_to_euler};
-use core_nav::earth::{earth_rate_n, transport_rate_n, GeoPoint};
-use core_nav::eskf::{Eskf, EskfConfig, InitialSigma, I_P, I_PHI, I_V};
+use core_nav::aided::{AidedConfig, AidedNav, AidedStep, GnssFix, OriginE7};
+use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_euler, Euler};
+use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
 use core_nav::real::Real;
-use core_nav::strapdown::{ImuSample, Strapdown};
-use core_nav::table::q_s_b;
+use core_nav::strapdown::ImuSample;
+use core_nav::table::{Axis, TableAngle};
 use hal_sim::imu::ImuSpec;
 use hal_sim::recording::Recording;
 use hal_sim::track::EncoderTrack;
@@ -31,23 +27,9 @@ use crate::nav::TrajRow;
 mod summary;
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};
 
-/// Samples the zero-velocity detector looks back over (0.5 s at 100 Hz).
-pub const ZUPT_WINDOW: usize = 50;
-/// The base's rotation under which it may be still, rad/s (0.5 deg/s:
-/// above a MEMS gyro's 0.5 s noise, below a car's yaw in traffic).
-pub const ZUPT_GYRO_RADPS: f64 = 0.0087;
-/// The specific force's standard deviation under which it may be still,
-/// m/s^2 (a moving car's vibration is several times more).
-pub const ZUPT_ACCEL_MPS2: f64 = 0.05;
-/// Zero-velocity measurement 1-sigma, m/s.
-pub const ZUPT_SIGMA_MPS: f64 = 0.02;
-
-/// The share of a fix's reported variance the filter takes as correlated
-/// over a minute (the rest white): automotive receivers' errors are half
-/// multipath and atmosphere. The simulator's receiver is built the same
-/// way (`hal_sim::drive::Receiver`), so on simulated runs the NEES tests the
-/// filter's algebra and tuning, not this assumption.
-pub const GNSS_CORR_SHARE: f64 = 0.5;
+pub use core_nav::aided::{
+    GNSS_CORR_SHARE, ZUPT_ACCEL_MPS2, ZUPT_GYRO_RADPS, ZUPT_SIGMA_MPS, ZUPT_WINDOW,
+};
 
 /// How to aid.
 #[derive(Clone, Debug)]
@@ -98,6 +80,33 @@ pub struct AidedRun {
     /// runs), once a second: (time s, NEES, degrees of freedom: north,
     /// east, and the three velocities).
     pub nees: Vec<(f64, f64, usize)>,
+}
+
+/// The sensor profile for the filter: `name` (one of hal-sim's profiles)
+/// or the one the recording's `[imu] model` names.
+///
+/// # Errors
+/// An unknown name, or a recording whose model names no known profile.
+pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
+    match name {
+        Some(name) => ImuSpec::by_name(name).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--imu-profile {name:?}: one of {}",
+                ImuSpec::NAMES.join(", ")
+            )
+        }),
+        None => rec
+            .meta
+            .imu_model
+            .as_deref()
+            .and_then(ImuSpec::by_model)
+            .ok_or_else(|| {
+                anyhow::anyhow!(
+                    "the recording's [imu] model names no known profile: give --imu-profile ({})",
+                    ImuSpec::NAMES.join(", ")
+                )
+            }),
+    }
 }
 
 /// The filter's noise model from a sensor profile: white noise as the
@@ -152,151 +161,84 @@ fn navigate_t<T: Real>(
     let Some(fixes) = &mv.gnss else {
         bail!("gnss.csv is missing: --gnss needs the receiver's fixes")
     };
-    let lever_b = Vector3::from(mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m));
+    let lever_b = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
     if rec.table.len() < 3 || rec.imu.len() < 2 {
         bail!("the recording has too few IMU samples or encoder reads");
     }
     let track = EncoderTrack::of(rec);
-    let k_axis = m.axis.unit::<f64>();
-    let origin = GeoPoint::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
-    let c_s_b = |t: f64| quat_to_dcm(&q_s_b(m.axis, track.angle(t)));
+    let table = |t: f64| TableAngle::<T>::from_rad_f64(track.angle(t));
+    let origin = OriginE7::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
     let to_us = crate::nav::clock_us(m);
-    let sample = |k: usize, kf: Option<&Eskf<T>>| {
+    let sample = |k: usize| {
         let r = &rec.imu[k];
-        let (w, f) = (
-            Vector3::from(r.gyro_radps).map(T::lit),
-            Vector3::from(r.accel_mps2).map(T::lit),
-        );
         ImuSample::<T> {
             t_us: to_us(r.t_s),
-            w_is_s: kf.map_or(w, |kf| kf.correct_gyro(&w)),
-            f_s: kf.map_or(f, |kf| kf.correct_accel(&f)),
+            w_is_s: Vector3::from(r.gyro_radps).map(T::lit),
+            f_s: Vector3::from(r.accel_mps2).map(T::lit),
         }
     };
-    let c_b_n0 = core_nav::site::c_b_n(&m.base());
+    let q_b_n0 = euler_to_quat(&Euler::<f64>::from_deg(
+        m.roll_deg,
+        m.pitch_deg,
+        m.heading_deg,
+    ));
+    let q_b_n0 = Quaternion::from(q_b_n0.coords.map(T::lit));
     let t0 = rec.imu[0].t_s;
-    let q0 = dcm_to_quat(&(c_b_n0 * c_s_b(t0)));
-    let cfg = crate::nav::strapdown_config(m, false);
-    let q0 = Quaternion::from(q0.coords.map(T::lit));
-    let mut nav = Strapdown::<T>::new(cfg, origin, Vector3::zeros(), q0, &sample(0, None))
-        .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
-    let earth = *nav.earth();
-    let (rm_h0, rn_h0_cos) = (earth.rm_h0.to_f64(), earth.rn_h0_cos.to_f64());
+    let mut an = AidedNav::<T>::new(
+        crate::nav::strapdown_config(m, false),
+        origin,
+        &q_b_n0,
+        &table(t0),
+        &sample(0),
+        aided_config(m.axis, lever_b, opt),
+    )
+    .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
+    let earth = *an.nav().earth();
     let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
-    let tv = |v: &Vector3<f64>| v.map(T::lit);
-    let mut kf = Eskf::<T>::new(
-        filter_config(&opt.profile, opt.gate_sigma),
-        &InitialSigma {
-            position_m: 1.0,
-            velocity_mps: 0.05,
-            level_rad: 0.5f64.to_radians(),
-            heading_rad: 2f64.to_radians(),
-        },
-    );
     let mut run = AidedRun::default();
     let truth = mv.truth.as_deref().unwrap_or(&[]);
     let mut next_truth = 0usize;
     let mut next_fix = 0usize;
-    let mut window: std::collections::VecDeque<(f64, Vector3<f64>)> =
-        std::collections::VecDeque::with_capacity(ZUPT_WINDOW + 1);
     let n = rec.imu.len();
+    let half = 0.5 / m.imu_rate_hz;
     for k in 0..n {
         let t = rec.imu[k].t_s;
-        let s = sample(k, Some(&kf));
-        if k > 0 {
-            let prev_t = rec.imu[k - 1].t_s;
-            if nav.step(&s).is_err() {
-                run.faults += 1;
-                continue;
-            }
-            let st = *nav.state();
-            let e = nav.earth_here();
-            let c_s_n = quat_to_dcm(&st.q_s_n);
-            let w_ie = earth_rate_n(e.sin_lat, e.cos_lat);
-            let w_en = transport_rate_n(&st.v_n, e.r_m, e.r_n, e.height_m, e.sin_lat / e.cos_lat);
-            kf.predict(
-                &c_s_n,
-                &(c_s_n * s.f_s),
-                &w_ie,
-                &w_en,
-                &s.w_is_s,
-                T::lit(t - prev_t),
-            );
-        }
-        let st = *nav.state();
-        let (p_n, v_n) = (f64v(&st.p_n), f64v(&st.v_n));
-        let c_s_n = quat_to_dcm(&st.q_s_n).map(|x| x.to_f64());
-        let csb = c_s_b(t);
-        let c_b_n = c_s_n * csb.transpose();
-        // The base's rotation and the specific force, table removed.
-        let rate = track.at(t).rate;
-        let w_ib_b = csb * (f64v(&s.w_is_s) - k_axis * rate);
-        let f_b = csb * f64v(&s.f_s);
-        if window.len() == ZUPT_WINDOW {
-            window.pop_front();
-        }
-        window.push_back((w_ib_b.norm(), f_b));
-        let still = opt.zupt && window.len() == ZUPT_WINDOW && is_still(&window);
-        let mut row_fix = false;
-        // GNSS: the fix nearest this sample.
+        // GNSS: fixes nearest this sample go in before its step.
         while let Some(f) = fixes.get(next_fix) {
-            if f.t_s > t + 0.5 / m.imu_rate_hz {
+            if f.t_s > t + half {
                 break;
             }
             next_fix += 1;
-            if f.t_s < t - 0.5 / m.imu_rate_hz {
-                run.refused += 1; // before the run or skipped by a fault
+            if f.t_s < t - half || k == 0 {
+                run.refused += 1; // before the run's first step
                 continue;
             }
-            let p_fix = Vector3::new(
-                (f.lat_deg.to_radians() - origin.lat_rad) * rm_h0,
-                (f.lon_deg.to_radians() - origin.lon_rad) * rn_h0_cos,
-                origin.height_m - f.height_m,
-            );
-            let l_n = c_b_n * lever_b;
-            let zp = p_fix - (p_n + l_n);
-            let v_ant = v_n + c_b_n * w_ib_b.cross(&lever_b);
-            let zv = Vector3::from(f.v_n_mps) - v_ant;
-            let sp = Vector3::new(f.sigma_h_m, f.sigma_h_m, f.sigma_v_m)
-                * (1.0 - GNSS_CORR_SHARE).sqrt();
-            let sv = Vector3::repeat(f.sigma_vel_mps);
-            let (mut nis, mut used) = (0.0, 0u8);
-            match kf.update_position(&tv(&zp), &tv(&l_n), &tv(&sp)) {
-                Ok(r) => {
-                    nis += r.nis.to_f64();
-                    used += r.used;
-                }
-                Err(_) => run.refused += 1,
-            }
-            match kf.update_velocity(&tv(&zv), &tv(&sv)) {
-                Ok(r) => {
-                    nis += r.nis.to_f64();
-                    used += r.used;
-                }
-                Err(_) => run.refused += 1,
-            }
-            run.nis.push((f.t_s, nis, used));
-            row_fix = true;
+            an.gnss(&GnssFix::from_si(
+                f.lat_deg,
+                f.lon_deg,
+                f.height_m,
+                f.v_n_mps,
+                f.sigma_h_m,
+                f.sigma_v_m,
+                f.sigma_vel_mps,
+            ));
         }
-        if still
-            && k % 10 == 0
-            && kf
-                .update_velocity(&(-st.v_n), &Vector3::repeat(T::lit(ZUPT_SIGMA_MPS)))
-                .is_ok()
-        {
-            run.zupts += 1;
-        }
-        if row_fix || (still && k % 10 == 0) {
-            let (dp, dv, phi) = kf.take_correction();
-            if nav.correct(&dp, &dv, &phi).is_err() {
-                run.faults += 1;
+        let mut step = AidedStep::default();
+        if k > 0 {
+            match an.step(&sample(k), &table(t), T::lit(track.at(t).rate)) {
+                Ok(s) => step = s,
+                Err(_) => continue,
             }
         }
-        let st = *nav.state();
-        let c_b_n = quat_to_dcm(&st.q_s_n).map(|x| x.to_f64()) * c_s_b(t).transpose();
+        if let Some((nis, used)) = step.fix {
+            run.nis.push((t, nis.to_f64(), used));
+        }
+        let st = *an.nav().state();
+        let c_b_n = an.c_b_n(&table(t)).map(|x| x.to_f64());
         let e = quat_to_euler(&dcm_to_quat(&c_b_n));
-        let ned = origin.ned_to(&earth.point_at(&st.p_n));
+        let ned = earth.origin.ned_to(&earth.point_at(&st.p_n));
         let v_n = f64v(&st.v_n);
+        let kf = &an.kf;
         let sig = |i: usize| {
             [
                 kf.sigma(i).to_f64(),
@@ -314,13 +256,13 @@ fn navigate_t<T: Real>(
                     e.pitch.to_degrees(),
                     e.heading.to_degrees().rem_euclid(360.0),
                 ],
-                faults: run.faults,
+                faults: an.counts.steps_refused,
             },
             sigma_p_m: sig(I_P),
             sigma_v_mps: sig(I_V),
             sigma_att_deg: sig(I_PHI).map(f64::to_degrees),
-            fix: row_fix,
-            still,
+            fix: step.fix.is_some(),
+            still: step.still,
         });
         // NEES once a second against the truth (north, east, velocity):
         // the error in the tangent plane at the start, the filter's
@@ -350,25 +292,35 @@ fn navigate_t<T: Real>(
             progress(k as f64 / n as f64);
         }
     }
-    run.rejected = kf.rejected;
-    run.refused += kf.refused;
+    run.rejected = an.kf.rejected;
+    run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
+    run.zupts = an.counts.zupts;
+    run.faults = an.counts.steps_refused;
     progress(1.0);
     Ok(run)
 }
 
-fn is_still(w: &std::collections::VecDeque<(f64, Vector3<f64>)>) -> bool {
-    let n = w.len().max(1) as f64;
-    if w.iter().any(|(g, _)| *g > ZUPT_GYRO_RADPS) {
-        return false;
+/// The aided navigator's settings for a sensor profile, table axis and
+/// antenna lever arm (`b`, m).
+pub fn aided_config(axis: Axis, antenna_b_m: [f64; 3], opt: &AidedOptions) -> AidedConfig {
+    AidedConfig {
+        eskf: filter_config(&opt.profile, opt.gate_sigma),
+        initial: INITIAL_SIGMA,
+        axis,
+        antenna_b_m,
+        zupt: opt.zupt,
     }
-    let mean: Vector3<f64> = w.iter().map(|(_, f)| *f).sum::<Vector3<f64>>() / n;
-    let var = w
-        .iter()
-        .map(|(_, f)| (f - mean).norm_squared())
-        .sum::<f64>()
-        / n;
-    var.sqrt() < ZUPT_ACCEL_MPS2
 }
+
+/// The filter's initial 1-sigma: the start's position from the first fix
+/// (1 m), at rest (0.05 m/s), the attitude from a level and a compass
+/// (0.5 deg level, 2 deg heading).
+pub const INITIAL_SIGMA: InitialSigma = InitialSigma {
+    position_m: 1.0,
+    velocity_mps: 0.05,
+    level_rad: 0.5 * core::f64::consts::PI / 180.0,
+    heading_rad: 2.0 * core::f64::consts::PI / 180.0,
+};
 
 /// trajectory.csv with the filter's sigmas as extra columns
 /// (trajectory-v1 allows extra columns named with their units).

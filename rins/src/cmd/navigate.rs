@@ -119,26 +119,7 @@ pub fn run(a: &Args) -> Result<()> {
 
 /// `rins navigate --gnss`.
 fn run_aided(a: &Args, rec: &hal_sim::recording::Recording) -> Result<()> {
-    use hal_sim::imu::ImuSpec;
-    let profile = match &a.imu_profile {
-        Some(name) => ImuSpec::by_name(name).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--imu-profile {name:?}: one of {}",
-                ImuSpec::NAMES.join(", ")
-            )
-        })?,
-        None => rec
-            .meta
-            .imu_model
-            .as_deref()
-            .and_then(ImuSpec::by_model)
-            .ok_or_else(|| {
-                anyhow::anyhow!(
-                    "the recording's [imu] model names no known profile: give --imu-profile ({})",
-                    ImuSpec::NAMES.join(", ")
-                )
-            })?,
-    };
+    let profile = rins::aided::profile(rec, a.imu_profile.as_deref())?;
     let opt = rins::aided::AidedOptions {
         profile,
         zupt: !a.no_zupt,

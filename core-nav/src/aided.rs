@@ -1,0 +1,417 @@
+//! The aided navigator, one IMU sample at a time: the strapdown
+//! mechanization of the spinning sensor ([`crate::strapdown`]), the
+//! error-state Kalman filter ([`crate::eskf`]), GNSS fixes with the antenna
+//! lever arm through the table angle, zero-velocity updates when the
+//! vehicle stands still, closed loop. `no_std`, no heap, generic over the
+//! float: the board runs it in f32, the host (`rins navigate --gnss`) in
+//! f32 or f64, the same code.
+//!
+//! Frames: `s` the sensor (on the table), `b` the vehicle (the table's
+//! base), `n` local NED. The table turns `s` about its axis `k` by the
+//! encoder angle `theta`: `c_s_b = rot(k, theta)`, `c_b_n = c_s_n c_s_b^T`.
+//!
+//! **Zero velocity** is detected from the IMU with the table's own rotation
+//! removed: over the last [`ZUPT_WINDOW`] samples the base's rotation
+//! `|c_s_b (w_is_s - theta_dot k)|` stays under [`ZUPT_GYRO_RADPS`] and the
+//! specific force's spread under [`ZUPT_ACCEL_MPS2`]: a moving car shakes
+//! (road and engine vibration) and turns; a parked one does neither. The
+//! detector is evaluated, and the update made, every [`ZUPT_EVERY`]
+//! samples (consecutive zero-velocity measurements 10 ms apart are not
+//! independent; one every 0.1 s keeps the filter honest and the step
+//! cheap).
+//!
+//! **GNSS fixes** come as a receiver gives them ([`GnssFix`]: latitude and
+//! longitude in 1e-7 deg, height and velocity in mm, mm/s): the position
+//! offset from the origin is formed from the integer difference (exact),
+//! then scaled in f64 (correctly rounded on both the board's soft-float and
+//! the host, so both get the same bits), then rounded once into `T`. A fix
+//! is held until the next [`AidedNav::step`], which uses it after the
+//! prediction to that sample (the caller hands it over before the sample
+//! nearest its time). A second fix before a step replaces the first and is
+//! counted ([`AidedCounts::fixes_replaced`]).
+
+use crate::attitude::quat_to_dcm;
+use crate::earth::{earth_rate_n, transport_rate_n, GeoPoint};
+use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma};
+use crate::real::Real;
+use crate::strapdown::{ImuSample, Strapdown, StrapdownConfig};
+use crate::table::{q_s_b, Axis, TableAngle};
+use crate::NavError;
+use nalgebra::{Matrix3, Quaternion, Vector3};
+
+/// Samples the zero-velocity detector looks back over (0.5 s at 100 Hz).
+pub const ZUPT_WINDOW: usize = 50;
+/// The base's rotation under which it may be still, rad/s (0.5 deg/s:
+/// above a MEMS gyro's 0.5 s noise, below a car's yaw in traffic).
+pub const ZUPT_GYRO_RADPS: f64 = 0.0087;
+/// The specific force's standard deviation under which it may be still,
+/// m/s^2 (a moving car's vibration is several times more).
+pub const ZUPT_ACCEL_MPS2: f64 = 0.05;
+/// Zero-velocity measurement 1-sigma, m/s.
+pub const ZUPT_SIGMA_MPS: f64 = 0.02;
+/// The detector runs, and a zero-velocity update is made, every this many
+/// samples.
+pub const ZUPT_EVERY: u32 = 10;
+/// Predictions the filter gathers into one covariance propagation (0.1 s
+/// at 100 Hz): the mechanization runs every sample, `P` every tenth (its
+/// dense 27 x 27 products are most of the filter's cost; the error
+/// dynamics change little in 0.1 s). A fix or zero-velocity update
+/// propagates what is pending first.
+pub const PREDICT_BATCH: u32 = 10;
+
+/// The share of a fix's reported variance the filter takes as correlated
+/// over a minute (the rest white): automotive receivers' errors are half
+/// multipath and atmosphere. hal-sim's receiver is built the same way, so
+/// on simulated runs the NEES tests the filter's algebra and tuning, not
+/// this assumption.
+pub const GNSS_CORR_SHARE: f64 = 0.5;
+
+/// A receiver's fix in its own integer units (the u-blox NAV-PVT style the
+/// command link carries): WGS-84 position of the antenna, NED velocity,
+/// the receiver's 1-sigma accuracies.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GnssFix {
+    /// Latitude, 1e-7 deg.
+    pub lat_e7: i32,
+    /// Longitude, 1e-7 deg.
+    pub lon_e7: i32,
+    /// Height above the ellipsoid, mm.
+    pub height_mm: i32,
+    /// Velocity north, east, down, mm/s.
+    pub v_n_mmps: [i32; 3],
+    /// Horizontal position 1-sigma, mm.
+    pub sigma_h_mm: u32,
+    /// Vertical position 1-sigma, mm.
+    pub sigma_v_mm: u32,
+    /// Velocity 1-sigma (each axis), mm/s.
+    pub sigma_vel_mmps: u32,
+}
+
+impl GnssFix {
+    /// From SI values (host side: `gnss.csv`), rounded to the receiver's
+    /// units (1e-7 deg is 11 mm, far below a fix's metres). Non-finite or
+    /// out-of-range values saturate (the filter then refuses or gates the
+    /// fix: counted).
+    #[allow(clippy::too_many_arguments)]
+    pub fn from_si(
+        lat_deg: f64,
+        lon_deg: f64,
+        height_m: f64,
+        v_n_mps: [f64; 3],
+        sigma_h_m: f64,
+        sigma_v_m: f64,
+        sigma_vel_mps: f64,
+    ) -> Self {
+        let i = |x: f64| libm::round(x) as i32;
+        let u = |x: f64| libm::round(x) as u32;
+        Self {
+            lat_e7: i(lat_deg * 1e7),
+            lon_e7: i(lon_deg * 1e7),
+            height_mm: i(height_m * 1e3),
+            v_n_mmps: v_n_mps.map(|v| i(v * 1e3)),
+            sigma_h_mm: u(sigma_h_m * 1e3),
+            sigma_v_mm: u(sigma_v_m * 1e3),
+            sigma_vel_mmps: u(sigma_vel_mps * 1e3),
+        }
+    }
+}
+
+/// The navigation origin in a receiver's units (so a fix's offset from it
+/// is an exact integer difference).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct OriginE7 {
+    /// Latitude, 1e-7 deg.
+    pub lat_e7: i32,
+    /// Longitude, 1e-7 deg.
+    pub lon_e7: i32,
+    /// Height above the ellipsoid, mm.
+    pub height_mm: i32,
+}
+
+impl OriginE7 {
+    /// From degrees and metres, rounded to 1e-7 deg and 1 mm.
+    pub fn from_deg(lat_deg: f64, lon_deg: f64, height_m: f64) -> Self {
+        let f = GnssFix::from_si(lat_deg, lon_deg, height_m, [0.0; 3], 0.0, 0.0, 0.0);
+        Self {
+            lat_e7: f.lat_e7,
+            lon_e7: f.lon_e7,
+            height_mm: f.height_mm,
+        }
+    }
+
+    /// The origin as a geodetic point (rad, m).
+    pub fn point(&self) -> GeoPoint {
+        GeoPoint::from_deg(
+            f64::from(self.lat_e7) * 1e-7,
+            f64::from(self.lon_e7) * 1e-7,
+            f64::from(self.height_mm) * 1e-3,
+        )
+    }
+}
+
+/// How to aid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AidedConfig {
+    /// The filter's noise model.
+    pub eskf: EskfConfig,
+    /// The filter's initial 1-sigma.
+    pub initial: InitialSigma,
+    /// The table axis in `s`.
+    pub axis: Axis,
+    /// Antenna position from the table's centre, in `b`, m.
+    pub antenna_b_m: [f64; 3],
+    /// Make zero-velocity updates.
+    pub zupt: bool,
+}
+
+/// What the navigator has counted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AidedCounts {
+    /// Samples the mechanization refused (non-finite, gaps).
+    pub steps_refused: u32,
+    /// Zero-velocity updates made.
+    pub zupts: u32,
+    /// Fixes used (at least one component).
+    pub fixes_used: u32,
+    /// Fixes replaced by a newer one before a step could use them.
+    pub fixes_replaced: u32,
+    /// Corrections the mechanization refused.
+    pub corrections_refused: u32,
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AidedStep<T: Real> {
+    /// A fix was processed at this sample: its NIS (position and velocity
+    /// components summed) and the components used.
+    pub fix: Option<(T, u8)>,
+    /// The detector said still (evaluated every [`ZUPT_EVERY`] samples; the
+    /// last verdict).
+    pub still: bool,
+    /// A zero-velocity update was made at this sample.
+    pub zupt: bool,
+}
+
+/// The aided navigator.
+#[derive(Clone, Debug)]
+pub struct AidedNav<T: Real> {
+    nav: Strapdown<T>,
+    /// The filter (its covariance, estimates and counters).
+    pub kf: Eskf<T>,
+    cfg: AidedConfig,
+    origin: OriginE7,
+    lever_b: Vector3<T>,
+    /// (|w_ib_b|, f_b) of the last samples, a ring.
+    window: [(T, Vector3<T>); ZUPT_WINDOW],
+    head: usize,
+    filled: usize,
+    steps: u32,
+    still: bool,
+    pending: Option<GnssFix>,
+    /// What has been counted.
+    pub counts: AidedCounts,
+}
+
+/// The table's rotation `c_s_b` (rad in, DCM out).
+fn c_s_b<T: Real>(axis: Axis, angle: &TableAngle<T>) -> Matrix3<T> {
+    quat_to_dcm(&q_s_b(axis, angle.rad))
+}
+
+impl<T: Real> AidedNav<T> {
+    /// Starts at `origin` at rest, the vehicle's attitude `q_b_n` (`b` to
+    /// `n`), the table at `table`, with the first raw sample.
+    ///
+    /// # Errors
+    /// What [`Strapdown::new`] refuses.
+    pub fn new(
+        strapdown: StrapdownConfig,
+        origin: OriginE7,
+        q_b_n: &Quaternion<T>,
+        table: &TableAngle<T>,
+        first: &ImuSample<T>,
+        cfg: AidedConfig,
+    ) -> Result<Self, NavError> {
+        let q_s_n = q_b_n * q_s_b(cfg.axis, table.rad);
+        let nav = Strapdown::new(strapdown, origin.point(), Vector3::zeros(), q_s_n, first)?;
+        let mut kf = Eskf::new(cfg.eskf, &cfg.initial);
+        kf.batch = PREDICT_BATCH;
+        Ok(Self {
+            nav,
+            kf,
+            cfg,
+            origin,
+            lever_b: Vector3::from(cfg.antenna_b_m).map(T::lit),
+            window: [(T::zero(), Vector3::zeros()); ZUPT_WINDOW],
+            head: 0,
+            filled: 0,
+            steps: 0,
+            still: false,
+            pending: None,
+            counts: AidedCounts::default(),
+        })
+    }
+
+    /// The mechanization (its state: position offsets, velocity, `q_s_n`).
+    pub fn nav(&self) -> &Strapdown<T> {
+        &self.nav
+    }
+
+    /// The vehicle's attitude `c_b_n` with the table at `table`.
+    pub fn c_b_n(&self, table: &TableAngle<T>) -> Matrix3<T> {
+        quat_to_dcm(&self.nav.state().q_s_n) * c_s_b(self.cfg.axis, table).transpose()
+    }
+
+    /// Hands a fix over; the next [`Self::step`] uses it.
+    pub fn gnss(&mut self, fix: &GnssFix) {
+        if self.pending.replace(*fix).is_some() {
+            self.counts.fixes_replaced = self.counts.fixes_replaced.saturating_add(1);
+        }
+    }
+
+    /// The fix's antenna position as offsets from the origin in the
+    /// mechanization's coordinates (north, east, down, m).
+    pub fn fix_position_n(&self, fix: &GnssFix) -> Vector3<T> {
+        let e = self.nav.earth();
+        let rad_per_e7 = core::f64::consts::PI / 180.0 * 1e-7;
+        let dlat = i64::from(fix.lat_e7) - i64::from(self.origin.lat_e7);
+        // The shorter way round in longitude (3.6e9 e7 units a turn).
+        let dlon = (i64::from(fix.lon_e7) - i64::from(self.origin.lon_e7) + 1_800_000_000)
+            .rem_euclid(3_600_000_000)
+            - 1_800_000_000;
+        let dh = i64::from(fix.height_mm) - i64::from(self.origin.height_mm);
+        Vector3::new(
+            T::lit(dlat as f64 * rad_per_e7 * e.rm_h0.to_f64()),
+            T::lit(dlon as f64 * rad_per_e7 * e.rn_h0_cos.to_f64()),
+            T::lit(-(dh as f64) * 1e-3),
+        )
+    }
+
+    /// One IMU sample (raw: the filter's bias, scale and misalignment
+    /// estimates are taken out here) with the table at `table` turning at
+    /// `table_rate` (rad/s about its axis): mechanization, prediction, the
+    /// pending fix, the zero-velocity update, the correction fed back.
+    ///
+    /// # Errors
+    /// What [`Strapdown::step`] refuses (counted; the filter is not
+    /// advanced and a pending fix waits for the next sample).
+    pub fn step(
+        &mut self,
+        raw: &ImuSample<T>,
+        table: &TableAngle<T>,
+        table_rate: T,
+    ) -> Result<AidedStep<T>, NavError> {
+        let s = ImuSample {
+            t_us: raw.t_us,
+            w_is_s: self.kf.correct_gyro(&raw.w_is_s),
+            f_s: self.kf.correct_accel(&raw.f_s),
+        };
+        let t_prev = self.nav.state().t_us;
+        if let Err(e) = self.nav.step(&s) {
+            self.counts.steps_refused = self.counts.steps_refused.saturating_add(1);
+            return Err(e);
+        }
+        let st = *self.nav.state();
+        let e = self.nav.earth_here();
+        let c_s_n = quat_to_dcm(&st.q_s_n);
+        let w_ie = earth_rate_n(e.sin_lat, e.cos_lat);
+        let w_en = transport_rate_n(&st.v_n, e.r_m, e.r_n, e.height_m, e.sin_lat / e.cos_lat);
+        let dt = T::lit(st.t_us.saturating_sub(t_prev) as f64 * 1e-6);
+        self.kf
+            .predict(&c_s_n, &(c_s_n * s.f_s), &w_ie, &w_en, &s.w_is_s, dt);
+
+        // The base's rotation and specific force, the table's removed.
+        let csb = c_s_b(self.cfg.axis, table);
+        let k = self.cfg.axis.unit::<T>();
+        let w_ib_b = csb * (s.w_is_s - k * table_rate);
+        if let Some(slot) = self.window.get_mut(self.head) {
+            *slot = (w_ib_b.norm(), csb * s.f_s);
+        }
+        self.head = (self.head + 1) % ZUPT_WINDOW;
+        self.filled = (self.filled + 1).min(ZUPT_WINDOW);
+        self.steps = self.steps.wrapping_add(1);
+
+        let mut out = AidedStep::default();
+        let mut corrected = false;
+        if let Some(fix) = self.pending.take() {
+            let c_b_n = c_s_n * csb.transpose();
+            out.fix = Some(self.use_fix(&fix, &c_b_n, &w_ib_b));
+            corrected = true;
+        }
+        if self.cfg.zupt && self.steps.is_multiple_of(ZUPT_EVERY) {
+            self.still = self.filled == ZUPT_WINDOW && self.is_still();
+            if self.still {
+                let z = -st.v_n;
+                let sigma = Vector3::repeat(T::lit(ZUPT_SIGMA_MPS));
+                if self.kf.update_velocity(&z, &sigma).is_ok() {
+                    self.counts.zupts = self.counts.zupts.saturating_add(1);
+                    out.zupt = true;
+                }
+                corrected = true;
+            }
+        }
+        out.still = self.still;
+        if corrected {
+            let (dp, dv, phi) = self.kf.take_correction();
+            if self.nav.correct(&dp, &dv, &phi).is_err() {
+                self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Position and velocity updates from `fix` (antenna at `c_b_n l_b`,
+    /// its velocity `v + c_b_n (w_ib_b x l_b)`); the white share of the
+    /// reported variance is the measurement's, the rest the filter's
+    /// correlated-error state. Returns (NIS, components used).
+    fn use_fix(&mut self, fix: &GnssFix, c_b_n: &Matrix3<T>, w_ib_b: &Vector3<T>) -> (T, u8) {
+        let st = *self.nav.state();
+        let l_n = c_b_n * self.lever_b;
+        let zp = self.fix_position_n(fix) - (st.p_n + l_n);
+        let v_ant = st.v_n + c_b_n * w_ib_b.cross(&self.lever_b);
+        let v_fix = Vector3::from(fix.v_n_mmps).map(|v| T::lit(f64::from(v) * 1e-3));
+        let zv = v_fix - v_ant;
+        let white = libm::sqrt(1.0 - GNSS_CORR_SHARE) * 1e-3;
+        let sp = Vector3::new(
+            f64::from(fix.sigma_h_mm),
+            f64::from(fix.sigma_h_mm),
+            f64::from(fix.sigma_v_mm),
+        )
+        .map(|s| T::lit(s * white));
+        let sv = Vector3::repeat(T::lit(f64::from(fix.sigma_vel_mmps) * 1e-3));
+        let (mut nis, mut used) = (T::zero(), 0u8);
+        let mut add = |r: Result<crate::eskf::UpdateReport<T>, FilterError>| {
+            if let Ok(r) = r {
+                nis += r.nis;
+                used += r.used;
+            }
+        };
+        add(self.kf.update_position(&zp, &l_n, &sp));
+        add(self.kf.update_velocity(&zv, &sv));
+        if used > 0 {
+            self.counts.fixes_used = self.counts.fixes_used.saturating_add(1);
+        }
+        (nis, used)
+    }
+
+    /// The detector's verdict on the window: no rotation above
+    /// [`ZUPT_GYRO_RADPS`], the specific force's spread under
+    /// [`ZUPT_ACCEL_MPS2`].
+    fn is_still(&self) -> bool {
+        let gyro = T::lit(ZUPT_GYRO_RADPS);
+        if self.window.iter().any(|(g, _)| *g > gyro) {
+            return false;
+        }
+        let n = T::lit(ZUPT_WINDOW as f64);
+        let mean = self
+            .window
+            .iter()
+            .fold(Vector3::zeros(), |a: Vector3<T>, (_, f)| a + f)
+            / n;
+        let var = self
+            .window
+            .iter()
+            .fold(T::zero(), |a, (_, f)| a + (f - mean).norm_squared())
+            / n;
+        var < T::lit(ZUPT_ACCEL_MPS2 * ZUPT_ACCEL_MPS2)
+    }
+}
