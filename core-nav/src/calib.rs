@@ -228,7 +228,10 @@ impl PhaseAccumulator {
             self.at_turn = self.total;
         }
         // 1 s blocks for the static check.
-        let k = ((t_us - self.total.t_first_us) / self.block_len_us) as usize;
+        let k = t_us
+            .saturating_sub(self.total.t_first_us)
+            .checked_div(self.block_len_us)
+            .map_or(usize::MAX, |k| usize::try_from(k).unwrap_or(usize::MAX));
         if let (Some(b), Some(b2), Some(n)) = (
             self.blocks.get_mut(k),
             self.blocks2.get_mut(k),

@@ -247,8 +247,16 @@ impl<T: Real> Eskf<T> {
     /// their integrals.
     fn system_integral(&self, q: &Pending<T>) -> Cov<T> {
         let mut f = Cov::<T>::zeros();
+        // Element by element through `get_mut` (a view's bounds assert
+        // would link a panic path on the board).
         let put = |f: &mut Cov<T>, r: usize, c: usize, m: &Matrix3<T>| {
-            f.fixed_view_mut::<3, 3>(r, c).copy_from(m);
+            for (j, col) in m.column_iter().enumerate() {
+                for (i, v) in col.iter().enumerate() {
+                    if let Some(x) = f.get_mut((r + i, c + j)) {
+                        *x = *v;
+                    }
+                }
+            }
         };
         put(&mut f, I_P, I_V, &(Matrix3::identity() * q.dt));
         put(&mut f, I_V, I_PHI, &(-skew(&q.f_n)));
@@ -257,7 +265,13 @@ impl<T: Real> Eskf<T> {
         put(&mut f, I_PHI, I_PHI, &(-skew(&(q.w_ie + q.w_en))));
         put(&mut f, I_PHI, I_BG, &(-q.c_s_n));
         // d(phi')/d(M_rc) = -c_s_n e_r w_c: a 3x3 block per row of M.
-        f.fixed_view_mut::<3, 9>(I_PHI, I_M).copy_from(&(-q.cw));
+        for (j, col) in q.cw.column_iter().enumerate() {
+            for (i, v) in col.iter().enumerate() {
+                if let Some(x) = f.get_mut((I_PHI + i, I_M + j)) {
+                    *x = -*v;
+                }
+            }
+        }
         let gm = |tau: f64| {
             if tau > 0.0 {
                 Matrix3::identity() * (q.dt * T::lit(-1.0 / tau))
@@ -315,21 +329,21 @@ impl<T: Real> Eskf<T> {
         };
         let c = &self.cfg;
         let mut qd = State::<T>::zeros();
-        for (i, q) in [
-            (I_V, c.accel_vrw * c.accel_vrw),
-            (I_PHI, c.gyro_arw * c.gyro_arw),
-            (I_BG, bias_q(c.gyro_bias_sigma, c.gyro_bias_tau_s)),
-            (I_BA, bias_q(c.accel_bias_sigma, c.accel_bias_tau_s)),
-        ] {
-            qd.fixed_rows_mut::<3>(i)
-                .copy_from(&Vector3::repeat(T::lit(q) * dt_s));
-        }
         let [gh, gv] = c.gnss_corr_sigma_m;
-        qd.fixed_rows_mut::<3>(I_GP).copy_from(&Vector3::new(
-            T::lit(bias_q(gh, c.gnss_corr_tau_s)) * dt_s,
-            T::lit(bias_q(gh, c.gnss_corr_tau_s)) * dt_s,
-            T::lit(bias_q(gv, c.gnss_corr_tau_s)) * dt_s,
-        ));
+        let gq = |s: f64| bias_q(s, c.gnss_corr_tau_s);
+        for (i, q) in [
+            (I_V, [c.accel_vrw * c.accel_vrw; 3]),
+            (I_PHI, [c.gyro_arw * c.gyro_arw; 3]),
+            (I_BG, [bias_q(c.gyro_bias_sigma, c.gyro_bias_tau_s); 3]),
+            (I_BA, [bias_q(c.accel_bias_sigma, c.accel_bias_tau_s); 3]),
+            (I_GP, [gq(gh), gq(gh), gq(gv)]),
+        ] {
+            for (k, qk) in q.iter().enumerate() {
+                if let Some(x) = qd.get_mut(i + k) {
+                    *x = T::lit(*qk) * dt_s;
+                }
+            }
+        }
         // Phi P Phi^T = P + B P + (B P)^T + B P B^T, with B's zeros
         // skipped: P B^T = (B P)^T (P symmetric), then B P B^T = (B P) B^T.
         let mt = mul_bt(&self.p, &b);
@@ -344,13 +358,17 @@ impl<T: Real> Eskf<T> {
         for (((col, m1), m2), (x1, x2)) in self
             .p
             .as_mut_slice()
-            .chunks_exact_mut(N)
-            .zip(mt.as_slice().chunks_exact(N))
-            .zip(mtt.as_slice().chunks_exact(N))
+            .as_chunks_mut::<N>()
+            .0
+            .iter_mut()
+            .zip(mt.as_slice().as_chunks::<N>().0.iter())
+            .zip(mtt.as_slice().as_chunks::<N>().0.iter())
             .zip(
                 x.as_slice()
-                    .chunks_exact(N)
-                    .zip(xt.as_slice().chunks_exact(N)),
+                    .as_chunks::<N>()
+                    .0
+                    .iter()
+                    .zip(xt.as_slice().as_chunks::<N>().0.iter()),
             )
         {
             for ((((pij, a), b), c), d) in col.iter_mut().zip(m1).zip(m2).zip(x1).zip(x2) {
@@ -407,7 +425,9 @@ impl<T: Real> Eskf<T> {
         for ((col, (&kj, &phj)), &ahj) in self
             .p
             .as_mut_slice()
-            .chunks_exact_mut(N)
+            .as_chunks_mut::<N>()
+            .0
+            .iter_mut()
             .zip(k.as_slice().iter().zip(ph.as_slice()))
             .zip(ah.as_slice())
         {
@@ -598,10 +618,12 @@ fn mul_bt<T: Real>(src: &Cov<T>, b: &Cov<T>) -> Cov<T> {
     let bt = b.transpose();
     for (out_col, b_row) in out
         .as_mut_slice()
-        .chunks_exact_mut(N)
-        .zip(bt.as_slice().chunks_exact(N))
+        .as_chunks_mut::<N>()
+        .0
+        .iter_mut()
+        .zip(bt.as_slice().as_chunks::<N>().0.iter())
     {
-        for (&v, src_col) in b_row.iter().zip(src.as_slice().chunks_exact(N)) {
+        for (&v, src_col) in b_row.iter().zip(src.as_slice().as_chunks::<N>().0.iter()) {
             if v != T::zero() {
                 for (o, x) in out_col.iter_mut().zip(src_col) {
                     *o += v * *x;

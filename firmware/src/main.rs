@@ -71,10 +71,14 @@ mod app {
 
     systick_monotonic!(Mono, 1_000);
 
-    type ImuSpi = ExclusiveDevice<Spi<SPI1>, PA4<Output<PushPull>>, embedded_hal_bus::spi::NoDelay>;
+    /// The IMU's SPI device: the bus, chip select, and a real delay (with
+    /// `NoDelay` a transaction holding a delay operation panics: a panic
+    /// path on the board).
+    type ImuSpi = ExclusiveDevice<Spi<SPI1>, PA4<Output<PushPull>>, CycleDelay>;
 
-    /// A busy-wait delay for the IMU's start-up (before the scheduler runs).
-    struct CycleDelay;
+    /// A busy-wait delay (the IMU's start-up, before the scheduler runs;
+    /// SPI delay operations, which the driver does not issue).
+    pub struct CycleDelay;
     impl DelayNs for CycleDelay {
         fn delay_ns(&mut self, ns: u32) {
             cortex_m::asm::delay(
@@ -139,7 +143,7 @@ mod app {
         // Safe state if the IMU does not come up: no IMU, no navigation,
         // the motor never runs; the reason is counted and sent (below).
         let mut imu_failed: Option<bool> = None;
-        let imu = match ExclusiveDevice::new_no_delay(spi, cs) {
+        let imu = match ExclusiveDevice::new(spi, cs, CycleDelay) {
             Ok(dev) => {
                 let mut imu = Icm42688::new(dev);
                 match imu.init(Config::default(), &mut CycleDelay) {
@@ -264,7 +268,9 @@ mod app {
                 app.drain(|f| {
                     if let (Some(dst), Some(len)) = (frames.get_mut(n), lens.get_mut(n)) {
                         let m = f.len().min(dst.len());
-                        dst[..m].copy_from_slice(&f[..m]);
+                        if let (Some(d), Some(s)) = (dst.get_mut(..m), f.get(..m)) {
+                            d.copy_from_slice(s);
+                        }
                         *len = m;
                         n += 1;
                     }
@@ -272,7 +278,7 @@ mod app {
                 app.stored
             });
             for (f, len) in frames.iter().zip(lens.iter()).take(n) {
-                for b in &f[..*len] {
+                for b in f.get(..*len).unwrap_or(&[]) {
                     if nb::block!(cx.local.tx.write(*b)).is_err() {
                         defmt::warn!("uart write");
                     }
