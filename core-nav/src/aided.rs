@@ -54,7 +54,7 @@ pub const ZUPT_SIGMA_MPS: f64 = 0.02;
 pub const ZUPT_EVERY: u32 = 10;
 /// Predictions the filter gathers into one covariance propagation (0.1 s
 /// at 100 Hz): the mechanization runs every sample, `P` every tenth (its
-/// dense 27 x 27 products are most of the filter's cost; the error
+/// dense 36 x 36 products are most of the filter's cost; the error
 /// dynamics change little in 0.1 s). A fix or zero-velocity update
 /// propagates what is pending first.
 pub const PREDICT_BATCH: u32 = 10;

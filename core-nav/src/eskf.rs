@@ -1,16 +1,21 @@
 //! Error-state Kalman filter for the aided INS (loosely coupled GNSS,
 //! zero-velocity updates), `no_std`, fixed-size, generic over the float.
 //!
-//! # Error state (27)
+//! # Error state (36)
 //!
-//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3), dgp (3), dM (9)]`,
+//! `dx = [dp (3), dv (3), phi (3), dbg (3), dba (3), dgp (3), dM (9), dMa
+//! (9)]`,
 //! each **truth minus estimate**: `dp` the position error in `n` (north, east, down, m; the
 //! curvilinear offsets of [`crate::strapdown::NavState::p_n`]), `dv` the
 //! velocity error (NED, m/s), `phi` the attitude error as a small rotation in
 //! `n` (`c_s_n,true = (I + [phi x]) c_s_n,est`, rad), `dbg`, `dba` the gyro
 //! and accelerometer bias errors in `s` (rad/s, m/s^2), `dM` the gyro
 //! triad's scale and misalignment errors (row-major, 1: the gyros read
-//! `(I + M) w`). The rotation makes the biases across the table axis
+//! `(I + M) w`), `dMa` the accelerometer triad's (`(I + Ma) f`). On a
+//! spinning table the vehicle's acceleration turns through the
+//! accelerometer triad at the table rate, and the triad's anisotropy
+//! (unequal scales, symmetric misalignment) becomes a ripple at twice the
+//! table rate that no other state can take up. The rotation makes the biases across the table axis
 //! sinusoids in `n` that average out; what it cannot modulate is the gyro
 //! along its own axis, where the table's rate times a scale error is a
 //! heading drift (30 deg/s x 3e-3 = 5 deg/min), and the misalignments,
@@ -27,10 +32,12 @@
 //!
 //! ```text
 //! dp'  = dv
-//! dv'  = -[f_n x] phi - (2 w_ie_n + w_en_n) x dv - c_s_n dba - c_s_n n_a
+//! dv'  = -[f_n x] phi - (2 w_ie_n + w_en_n) x dv - c_s_n dba
+//!        - c_s_n dMa f_s - c_s_n n_a
 //! phi' = -w_in_n x phi - c_s_n dbg - c_s_n dM w_is_s - c_s_n n_g
 //! dbg' = -dbg / tau_g + w_g,   dba' = -dba / tau_a + w_a   (Gauss-Markov)
-//! dgp' = -dgp / tau_gnss + w_gp,   dM' = 0
+//! dgp' = -dgp / tau_gnss + w_gp,   dM' = w_M (diagonal: scale drift),
+//! dMa' = 0
 //! ```
 //!
 //! discretised as `Phi = I + F T + (F T)^2 / 2`, `Q_d` from the white noise
@@ -65,7 +72,7 @@ use crate::real::Real;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 /// Size of the error state.
-pub const N: usize = 27;
+pub const N: usize = 36;
 /// Index of `dp` in the error state.
 pub const I_P: usize = 0;
 /// Index of `dv`.
@@ -80,6 +87,9 @@ pub const I_BA: usize = 12;
 pub const I_GP: usize = 15;
 /// Index of `dM`, the gyro scale and misalignment errors (row-major).
 pub const I_M: usize = 18;
+/// Index of `dMa`, the accelerometer scale and misalignment errors
+/// (row-major).
+pub const I_MA: usize = 27;
 
 /// Covariance of the error state.
 pub type Cov<T> = SMatrix<T, N, N>;
@@ -93,11 +103,19 @@ pub struct EskfConfig {
     pub gyro_arw: f64,
     /// Accelerometer white noise (velocity random walk), m/s/sqrt(s).
     pub accel_vrw: f64,
-    /// Gyro bias: stationary 1-sigma, rad/s, and correlation time, s.
+    /// Gyro bias at the start, 1-sigma, rad/s (turn-on bias and
+    /// instability: what the filter does not know at power-up).
+    pub gyro_bias_init_sigma: f64,
+    /// Gyro bias in run: a Gauss-Markov process's stationary 1-sigma,
+    /// rad/s, and correlation time, s (its process noise `2 sigma^2 /
+    /// tau`: instability and temperature drift, not the turn-on bias,
+    /// which is constant in a run).
     pub gyro_bias_sigma: f64,
     /// See `gyro_bias_sigma`, s.
     pub gyro_bias_tau_s: f64,
-    /// Accelerometer bias: stationary 1-sigma, m/s^2.
+    /// Accelerometer bias at the start, 1-sigma, m/s^2.
+    pub accel_bias_init_sigma: f64,
+    /// Accelerometer bias in run: stationary 1-sigma, m/s^2.
     pub accel_bias_sigma: f64,
     /// See `accel_bias_sigma`, s.
     pub accel_bias_tau_s: f64,
@@ -107,6 +125,14 @@ pub struct EskfConfig {
     pub gyro_scale_sigma: f64,
     /// Initial 1-sigma of the gyro misalignments (rad).
     pub gyro_misalignment_sigma: f64,
+    /// The gyro scale errors' drift in run (temperature), a random walk,
+    /// 1/sqrt(s): on a spinning table the rate times a drifting scale is a
+    /// drifting heading rate.
+    pub gyro_scale_rw: f64,
+    /// Accelerometer scale error, 1-sigma (constant in run).
+    pub accel_scale_sigma: f64,
+    /// Accelerometer axis misalignment, 1-sigma, rad.
+    pub accel_misalignment_sigma: f64,
     /// The receiver's correlated position error: stationary 1-sigma,
     /// horizontal and vertical (m), and its correlation time (s).
     pub gnss_corr_sigma_m: [f64; 2],
@@ -163,6 +189,9 @@ pub struct Eskf<T: Real> {
     /// w`): a sample is corrected by `(w - bias_g) - M (w - bias_g)` to
     /// first order ([`Self::correct_gyro`]).
     pub gyro_m: Matrix3<T>,
+    /// Accelerometer scale and misalignment estimate `Ma` (the
+    /// accelerometers read `(I + Ma) f`).
+    pub accel_m: Matrix3<T>,
     /// Estimate of the receiver's correlated position error, NED, m
     /// (decays with its correlation time between fixes).
     pub gnss_bias: Vector3<T>,
@@ -179,8 +208,8 @@ pub struct Eskf<T: Real> {
 }
 
 impl<T: Real> Eskf<T> {
-    /// A filter with diagonal initial covariance (biases at their
-    /// stationary sigma).
+    /// A filter with diagonal initial covariance (biases at their initial
+    /// sigma).
     pub fn new(cfg: EskfConfig, init: &InitialSigma) -> Self {
         let mut d = State::<T>::zeros();
         let block = |d: &mut State<T>, i: usize, v: Vector3<f64>| {
@@ -194,17 +223,18 @@ impl<T: Real> Eskf<T> {
             I_PHI,
             Vector3::new(init.level_rad, init.level_rad, init.heading_rad),
         );
-        block(&mut d, I_BG, Vector3::repeat(cfg.gyro_bias_sigma));
-        block(&mut d, I_BA, Vector3::repeat(cfg.accel_bias_sigma));
-        for r in 0..3 {
-            for c in 0..3 {
-                let sg = if r == c {
-                    cfg.gyro_scale_sigma
-                } else {
-                    cfg.gyro_misalignment_sigma
-                };
-                if let Some(x) = d.get_mut(I_M + 3 * r + c) {
-                    *x = T::lit(sg * sg);
+        block(&mut d, I_BG, Vector3::repeat(cfg.gyro_bias_init_sigma));
+        block(&mut d, I_BA, Vector3::repeat(cfg.accel_bias_init_sigma));
+        for (i0, scale, mis) in [
+            (I_M, cfg.gyro_scale_sigma, cfg.gyro_misalignment_sigma),
+            (I_MA, cfg.accel_scale_sigma, cfg.accel_misalignment_sigma),
+        ] {
+            for r in 0..3 {
+                for c in 0..3 {
+                    let sg = if r == c { scale } else { mis };
+                    if let Some(x) = d.get_mut(i0 + 3 * r + c) {
+                        *x = T::lit(sg * sg);
+                    }
                 }
             }
         }
@@ -217,6 +247,7 @@ impl<T: Real> Eskf<T> {
             bias_g: Vector3::zeros(),
             bias_a: Vector3::zeros(),
             gyro_m: Matrix3::zeros(),
+            accel_m: Matrix3::zeros(),
             gnss_bias: Vector3::zeros(),
             cfg,
             pending: Pending::default(),
@@ -265,10 +296,14 @@ impl<T: Real> Eskf<T> {
         put(&mut f, I_PHI, I_PHI, &(-skew(&(q.w_ie + q.w_en))));
         put(&mut f, I_PHI, I_BG, &(-q.c_s_n));
         // d(phi')/d(M_rc) = -c_s_n e_r w_c: a 3x3 block per row of M.
-        for (j, col) in q.cw.column_iter().enumerate() {
-            for (i, v) in col.iter().enumerate() {
-                if let Some(x) = f.get_mut((I_PHI + i, I_M + j)) {
-                    *x = -*v;
+        // d(dv')/d(Ma_rc) = -c_s_n e_r f_c likewise.
+        for (i0, m) in [(I_PHI, &q.cw), (I_V, &q.cf)] {
+            let j0 = if i0 == I_PHI { I_M } else { I_MA };
+            for (j, col) in m.column_iter().enumerate() {
+                for (i, v) in col.iter().enumerate() {
+                    if let Some(x) = f.get_mut((i0 + i, j0 + j)) {
+                        *x = -*v;
+                    }
                 }
             }
         }
@@ -331,7 +366,11 @@ impl<T: Real> Eskf<T> {
         let mut qd = State::<T>::zeros();
         let [gh, gv] = c.gnss_corr_sigma_m;
         let gq = |s: f64| bias_q(s, c.gnss_corr_tau_s);
+        let sq = c.gyro_scale_rw * c.gyro_scale_rw;
         for (i, q) in [
+            (I_M, [sq, 0.0, 0.0]),
+            (I_M + 4, [sq, 0.0, 0.0]),
+            (I_M + 8, [sq, 0.0, 0.0]),
             (I_V, [c.accel_vrw * c.accel_vrw; 3]),
             (I_PHI, [c.gyro_arw * c.gyro_arw; 3]),
             (I_BG, [bias_q(c.gyro_bias_sigma, c.gyro_bias_tau_s); 3]),
@@ -525,6 +564,11 @@ impl<T: Real> Eskf<T> {
                 {
                     *m += *x;
                 }
+                if let (Some(m), Some(x)) =
+                    (self.accel_m.get_mut((r, c)), self.dx.get(I_MA + 3 * r + c))
+                {
+                    *m += *x;
+                }
             }
         }
         self.gnss_bias += v(I_GP);
@@ -539,9 +583,11 @@ impl<T: Real> Eskf<T> {
         w - self.gyro_m * w
     }
 
-    /// A raw accelerometer sample corrected by the estimate, m/s^2 in `s`.
+    /// A raw accelerometer sample corrected by the estimates: `(f -
+    /// bias_a) - Ma (f - bias_a)`, m/s^2 in `s`.
     pub fn correct_accel(&self, f_s: &Vector3<T>) -> Vector3<T> {
-        f_s - self.bias_a
+        let f = f_s - self.bias_a;
+        f - self.accel_m * f
     }
 
     /// 1-sigma of error-state component `i` (its unit).
@@ -565,6 +611,8 @@ struct Pending<T: Real> {
     w_en: Vector3<T>,
     /// Column `3 r + c`: `c_s_n e_r w_c`.
     cw: SMatrix<T, 3, 9>,
+    /// Column `3 r + c`: `c_s_n e_r f_c` (`f` in `s`).
+    cf: SMatrix<T, 3, 9>,
     dt: T,
     n: u32,
 }
@@ -577,6 +625,7 @@ impl<T: Real> Default for Pending<T> {
             w_ie: Vector3::zeros(),
             w_en: Vector3::zeros(),
             cw: SMatrix::zeros(),
+            cf: SMatrix::zeros(),
             dt: T::zero(),
             n: 0,
         }
@@ -597,10 +646,17 @@ impl<T: Real> Pending<T> {
         self.f_n += f_n * dt;
         self.w_ie += w_ie * dt;
         self.w_en += w_en * dt;
+        let f_s = c_s_n.transpose() * f_n;
         for (r, col_r) in c_s_n.column_iter().enumerate() {
-            for (c, wc) in w_is_s.iter().enumerate() {
-                let mut dst = self.cw.fixed_view_mut::<3, 1>(0, 3 * r + c);
-                dst += col_r * (*wc * dt);
+            for (c, (wc, fc)) in w_is_s.iter().zip(f_s.iter()).enumerate() {
+                for (i, cri) in col_r.iter().enumerate() {
+                    if let Some(x) = self.cw.get_mut((i, 3 * r + c)) {
+                        *x += *cri * (*wc * dt);
+                    }
+                    if let Some(x) = self.cf.get_mut((i, 3 * r + c)) {
+                        *x += *cri * (*fc * dt);
+                    }
+                }
             }
         }
         self.dt += dt;

@@ -187,6 +187,9 @@ pub fn decode_record(r: &[u8; CAL_RECORD], axis: Axis) -> Option<GyroCalibration
 /// Telemetry frames waiting for the UART.
 pub const TX_QUEUE: usize = 32;
 
+/// Encoder reads kept for the table rate (0.5 s at 50 Hz, plus one).
+pub const ENC_HIST: usize = 26;
+
 /// The board's logic.
 pub struct App {
     cfg: AppConfig,
@@ -199,6 +202,10 @@ pub struct App {
     last_hw: Option<(u64, u16)>,
     glitch_run: u8,
     enc: EncoderInterpolator<f32>,
+    /// The last encoder reads (0.5 s at 50 Hz), for the table rate the
+    /// zero-velocity detector removes: over two reads a count (0.38 mrad
+    /// at 16,384 counts) is 1.1 deg/s of rate, over 0.5 s 0.04 deg/s.
+    enc_hist: heapless::Deque<(u64, TableAngle<f32>), ENC_HIST>,
     last_count: Option<(u64, i64)>,
     rate_window: Option<(u64, i64)>,
     stall_since: Option<u64>,
@@ -251,6 +258,7 @@ impl App {
             last_hw: None,
             glitch_run: 0,
             enc: EncoderInterpolator::new(40_000),
+            enc_hist: heapless::Deque::new(),
             last_count: None,
             rate_window: None,
             stall_since: None,
@@ -640,7 +648,12 @@ impl App {
     fn navigate(&mut self, t_us: u64, s: &Sample, angle: TableAngle<f32>) {
         let sample = self.imu_sample(t_us, s);
         let step = if let Some(a) = self.aided.as_mut() {
-            let rate = self.enc.rate().unwrap_or(0.0);
+            let rate = match (self.enc_hist.front(), self.enc_hist.back()) {
+                (Some((t0, a0)), Some((t1, a1))) if t1 > t0 => {
+                    a1.minus(a0) / ((t1 - t0) as f32 * 1e-6)
+                }
+                _ => 0.0,
+            };
             a.step(&sample, &angle, rate).map(|_| *a.nav().state())
         } else if let Some(nav) = self.nav.as_mut() {
             nav.step(&sample).copied()
@@ -700,15 +713,15 @@ impl App {
             self.mode = Mode::CalStatic(t_us);
         }
         self.last_count = Some((t_us, counts));
-        if self
-            .enc
-            .push(
-                t_us,
-                TableAngle::from_counts(counts, self.cfg.counts_per_rev),
-            )
-            .is_err()
-        {
+        let angle = TableAngle::from_counts(counts, self.cfg.counts_per_rev);
+        if self.enc.push(t_us, angle).is_err() {
             self.fault(t_us, Fault::EncoderGlitch);
+        } else {
+            if self.enc_hist.is_full() {
+                self.enc_hist.pop_front();
+            }
+            // Cannot fail: a slot was just made.
+            let _ = self.enc_hist.push_back((t_us, angle));
         }
         self.emit(Telemetry::Encoder {
             t_us,

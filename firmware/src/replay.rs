@@ -6,8 +6,10 @@
 //! header:  "RPLY" | u32 version (2) | u32 records | f64 lat_deg | f64 height_m
 //!          | 3 x f64 base roll, pitch, heading (deg) | f64 rate (rad/s) | u32 counts/rev
 //!          | u32 aided (0 / 1) | f64 lon_deg | 3 x f64 antenna in b (m)
-//!          | 12 x f64 filter: gyro ARW, accel VRW, gyro bias sigma, tau,
-//!            accel bias sigma, tau, gate, gyro scale sigma, misalignment
+//!          | 17 x f64 filter: gyro ARW, accel VRW, gyro bias initial sigma,
+//!            sigma, tau, accel bias initial sigma, sigma, tau, gate, gyro
+//!            scale sigma, misalignment sigma, scale random walk, accel
+//!            scale sigma, misalignment sigma
 //!            sigma, GNSS correlated sigma h, v, tau (the units of
 //!            core_nav::eskf::EskfConfig)
 //!          | 4 x f64 initial sigma: position, velocity, level, heading
@@ -27,7 +29,7 @@ use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::table::Axis;
 
 /// Bytes in the header.
-pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 12 + 4) * 8 + 4;
+pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 17 + 4) * 8 + 4;
 /// The format's version.
 pub const VERSION: u32 = 2;
 
@@ -71,8 +73,8 @@ impl Header {
     }
 
     /// The header's f64 fields after the fixed ones, in order.
-    fn aided_f64(&self) -> [f64; 20] {
-        let mut v = [0.0; 20];
+    fn aided_f64(&self) -> [f64; 25] {
+        let mut v = [0.0; 25];
         if let Some((lon, c)) = self.aided {
             let e = &c.eskf;
             let i = &c.initial;
@@ -85,13 +87,18 @@ impl Header {
                 az,
                 e.gyro_arw,
                 e.accel_vrw,
+                e.gyro_bias_init_sigma,
                 e.gyro_bias_sigma,
                 e.gyro_bias_tau_s,
+                e.accel_bias_init_sigma,
                 e.accel_bias_sigma,
                 e.accel_bias_tau_s,
                 e.gate_sigma,
                 e.gyro_scale_sigma,
                 e.gyro_misalignment_sigma,
+                e.gyro_scale_rw,
+                e.accel_scale_sigma,
+                e.accel_misalignment_sigma,
                 gh,
                 gv,
                 e.gnss_corr_tau_s,
@@ -158,25 +165,30 @@ impl Header {
                 eskf: EskfConfig {
                     gyro_arw: g(4)?,
                     accel_vrw: g(5)?,
-                    gyro_bias_sigma: g(6)?,
-                    gyro_bias_tau_s: g(7)?,
-                    accel_bias_sigma: g(8)?,
-                    accel_bias_tau_s: g(9)?,
-                    gate_sigma: g(10)?,
-                    gyro_scale_sigma: g(11)?,
-                    gyro_misalignment_sigma: g(12)?,
-                    gnss_corr_sigma_m: [g(13)?, g(14)?],
-                    gnss_corr_tau_s: g(15)?,
+                    gyro_bias_init_sigma: g(6)?,
+                    gyro_bias_sigma: g(7)?,
+                    gyro_bias_tau_s: g(8)?,
+                    accel_bias_init_sigma: g(9)?,
+                    accel_bias_sigma: g(10)?,
+                    accel_bias_tau_s: g(11)?,
+                    gate_sigma: g(12)?,
+                    gyro_scale_sigma: g(13)?,
+                    gyro_misalignment_sigma: g(14)?,
+                    gyro_scale_rw: g(15)?,
+                    accel_scale_sigma: g(16)?,
+                    accel_misalignment_sigma: g(17)?,
+                    gnss_corr_sigma_m: [g(18)?, g(19)?],
+                    gnss_corr_tau_s: g(20)?,
                 },
                 initial: InitialSigma {
-                    position_m: g(16)?,
-                    velocity_mps: g(17)?,
-                    level_rad: g(18)?,
-                    heading_rad: g(19)?,
+                    position_m: g(21)?,
+                    velocity_mps: g(22)?,
+                    level_rad: g(23)?,
+                    heading_rad: g(24)?,
                 },
                 axis: Axis::Z,
                 antenna_b_m: [g(1)?, g(2)?, g(3)?],
-                zupt: word(r, 68 + 8 * 20) == 1,
+                zupt: word(r, 68 + 8 * 25) == 1,
             };
             Some((g(0)?, cfg))
         } else {

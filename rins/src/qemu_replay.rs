@@ -29,6 +29,8 @@ pub struct Replay {
     pub outcome: Outcome,
     /// The board logic's mode at the end.
     pub mode: Mode,
+    /// What the board's aided navigator counted (aided replays).
+    pub aided: Option<core_nav::aided::AidedCounts>,
 }
 
 /// Builds the replay of `rec` for a board whose encoder has
@@ -151,5 +153,6 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
         events: events.len(),
         outcome: o,
         mode: app.mode,
+        aided: app.aided().map(|a| a.counts),
     })
 }

@@ -14,13 +14,18 @@ fn cfg() -> EskfConfig {
     EskfConfig {
         gyro_arw: 0.003f64.to_radians() / 60.0_f64.sqrt() * 60.0, // 0.18 deg/sqrt(h)-class
         accel_vrw: 0.0006,
+        gyro_bias_init_sigma: 10f64.to_radians() / 3600.0,
         gyro_bias_sigma: 10f64.to_radians() / 3600.0,
         gyro_bias_tau_s: 300.0,
+        accel_bias_init_sigma: 0.01,
         accel_bias_sigma: 0.01,
         accel_bias_tau_s: 300.0,
         gate_sigma: 1e6,
         gyro_scale_sigma: 3e-3,
         gyro_misalignment_sigma: 1e-3,
+        gyro_scale_rw: 0.0,
+        accel_scale_sigma: 3e-3,
+        accel_misalignment_sigma: 1e-3,
         gnss_corr_sigma_m: [1.0, 2.0],
         gnss_corr_tau_s: 60.0,
     }
