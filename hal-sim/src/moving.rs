@@ -39,6 +39,22 @@ pub struct GnssRow {
     pub sigma_vel_mps: f64,
 }
 
+impl GnssRow {
+    /// The fix in the receiver's integer units, as the board gets it over
+    /// the command link and core-nav's aided navigator takes it.
+    pub fn to_fix(&self) -> core_nav::aided::GnssFix {
+        core_nav::aided::GnssFix::from_si(
+            self.lat_deg,
+            self.lon_deg,
+            self.height_m,
+            self.v_n_mps,
+            self.sigma_h_m,
+            self.sigma_v_m,
+            self.sigma_vel_mps,
+        )
+    }
+}
+
 /// One `truth.csv` row (trajectory-v1 columns: the base `b`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TruthRow {

@@ -11,7 +11,6 @@
 //! --gnss` uses it at.
 
 use anyhow::{anyhow, bail, Result};
-use core_nav::aided::GnssFix;
 use core_nav::table::EncoderScale;
 use firmware::app::{App, Mode};
 use firmware::replay::{
@@ -92,15 +91,7 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
             };
             fixes.push(Event::Gnss {
                 t_us: (r.t_s * 1e6).round() as u64,
-                fix: GnssFix::from_si(
-                    f.lat_deg,
-                    f.lon_deg,
-                    f.height_m,
-                    f.v_n_mps,
-                    f.sigma_h_m,
-                    f.sigma_v_m,
-                    f.sigma_vel_mps,
-                ),
+                fix: f.to_fix(),
             });
         }
     }

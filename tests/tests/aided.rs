@@ -22,6 +22,15 @@ fn opts(p: &ImuSpec) -> AidedOptions {
     }
 }
 
+/// `rins navigate --gnss --f32`: the board's arithmetic.
+fn navigate_f32(rec: &Recording, p: &ImuSpec) -> aided::AidedRun {
+    let o = AidedOptions {
+        f32: true,
+        ..opts(p)
+    };
+    aided::navigate(rec, &o, &mut |_| {}).unwrap()
+}
+
 #[test]
 fn a_drive_recording_round_trips_with_its_gnss_and_truth() {
     let p = ImuSpec::nav440();
@@ -188,15 +197,7 @@ fn the_f32_board_navigation_follows_its_f64_twin_through_a_drive() {
     );
     let rec = simulate(&c, &mut |_| {}).unwrap();
     let a = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
-    let b = aided::navigate(
-        &rec,
-        &AidedOptions {
-            f32: true,
-            ..opts(&p)
-        },
-        &mut |_| {},
-    )
-    .unwrap();
+    let b = navigate_f32(&rec, &p);
     assert_eq!(a.rows.len(), b.rows.len());
     let (mut dp, mut dv, mut dh) = (0.0f64, 0.0f64, 0.0f64);
     for (x, y) in a.rows.iter().zip(&b.rows) {
@@ -226,15 +227,7 @@ fn the_board_navigates_a_drive_as_the_host_does() {
     c.duration_s = 300.0;
     let rec = simulate(&c, &mut |_| {}).unwrap();
     let board = rins::qemu_replay::build(&rec, 16_384).unwrap();
-    let host = aided::navigate(
-        &rec,
-        &AidedOptions {
-            f32: true,
-            ..opts(&p)
-        },
-        &mut |_| {},
-    )
-    .unwrap();
+    let host = navigate_f32(&rec, &p);
     let last = host.rows.last().unwrap().traj;
     // The host's row is NED from the origin; the board's p_n is the
     // mechanization's curvilinear offsets: the same to mm over 3 km.

@@ -11,7 +11,7 @@
 //! [`hal_sim::track::EncoderTrack`]).
 
 use anyhow::{bail, Result};
-use core_nav::aided::{AidedConfig, AidedNav, AidedStep, GnssFix, OriginE7};
+use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
 use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_euler, Euler};
 use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
 use core_nav::real::Real;
@@ -237,15 +237,7 @@ fn navigate_t<T: Real>(
                 run.refused += 1; // before the run's first step
                 continue;
             }
-            an.gnss(&GnssFix::from_si(
-                f.lat_deg,
-                f.lon_deg,
-                f.height_m,
-                f.v_n_mps,
-                f.sigma_h_m,
-                f.sigma_v_m,
-                f.sigma_vel_mps,
-            ));
+            an.gnss(&f.to_fix());
         }
         let mut step = AidedStep::default();
         if k > 0 {
