@@ -240,7 +240,7 @@ mod tests {
             let a = f64::from(k) * 0.01;
             let axis = Vector3::new(0.3, -0.5, 0.8).normalize();
             let q = rotvec_to_quat(&(axis * a));
-            let (s, c) = (libm::sin(a / 2.0), libm::cos(a / 2.0));
+            let (s, c) = crate::real::sin_cos(a / 2.0);
             let r = Quaternion::new(c, s * axis.x, s * axis.y, s * axis.z);
             assert!((q - r).norm() < 1e-15, "angle {a}: {}", (q - r).norm());
         }

@@ -96,8 +96,8 @@ impl GeoPoint {
 
     /// ECEF position, m (Groves Eq. 2.112).
     pub fn to_ecef(&self) -> Vector3<f64> {
-        let (sl, cl) = (libm::sin(self.lat_rad), libm::cos(self.lat_rad));
-        let (so, co) = (libm::sin(self.lon_rad), libm::cos(self.lon_rad));
+        let (sl, cl) = crate::real::sin_cos(self.lat_rad);
+        let (so, co) = crate::real::sin_cos(self.lon_rad);
         let (_, r_n) = radii(sl * sl);
         let h = self.height_m;
         Vector3::new(
@@ -109,8 +109,8 @@ impl GeoPoint {
 
     /// Rotation from ECEF to the local NED frame at this point, `C_e_n`.
     pub fn c_e_n(&self) -> nalgebra::Matrix3<f64> {
-        let (sl, cl) = (libm::sin(self.lat_rad), libm::cos(self.lat_rad));
-        let (so, co) = (libm::sin(self.lon_rad), libm::cos(self.lon_rad));
+        let (sl, cl) = crate::real::sin_cos(self.lat_rad);
+        let (so, co) = crate::real::sin_cos(self.lon_rad);
         nalgebra::Matrix3::new(
             -sl * co,
             -sl * so,
@@ -148,6 +148,9 @@ pub struct LocalEarth<T: Real> {
     pub rn_h0_cos: T,
     /// Gravity scale: 1 for normal gravity, else `g_given / gamma(lat0, h0)`.
     pub gravity_scale: T,
+    /// The reference height in `T`, m (converted once: on the board an
+    /// f64 conversion per step is a soft-float call).
+    pub height0_m: T,
 }
 
 /// The earth quantities at one point, m, rad, m/s^2, rad/s.
@@ -172,7 +175,7 @@ impl<T: Real> LocalEarth<T> {
     /// normal gravity at the origin (the recording's measured `g`); the
     /// height and latitude variation of normal gravity is kept around it.
     pub fn new(origin: GeoPoint, gravity_mps2: Option<f64>) -> Self {
-        let (sl, cl) = (libm::sin(origin.lat_rad), libm::cos(origin.lat_rad));
+        let (sl, cl) = crate::real::sin_cos(origin.lat_rad);
         let (r_m, r_n) = radii(sl * sl);
         let gamma0 = normal_gravity(sl * sl, origin.height_m);
         let scale = gravity_mps2.map_or(1.0, |g| g / gamma0);
@@ -183,6 +186,7 @@ impl<T: Real> LocalEarth<T> {
             rm_h0: T::lit(r_m + origin.height_m),
             rn_h0_cos: T::lit((r_n + origin.height_m) * cl),
             gravity_scale: T::lit(scale),
+            height0_m: T::lit(origin.height_m),
         }
     }
 
@@ -195,7 +199,7 @@ impl<T: Real> LocalEarth<T> {
         let cos_lat = self.cos_lat0 * cd - self.sin_lat0 * sd;
         let s2 = sin_lat * sin_lat;
         let (r_m, r_n) = radii(s2);
-        let height_m = T::lit(self.origin.height_m) - p_n.z;
+        let height_m = self.height0_m - p_n.z;
         let gravity = normal_gravity(s2, height_m) * self.gravity_scale;
         EarthAt {
             sin_lat,

@@ -19,6 +19,20 @@ pub trait Real: RealField + Copy + Default + core::fmt::Debug {
     /// Widens to `f64` (exact for both implementations).
     fn to_f64(self) -> f64;
 
+    /// [`SIN_COEF`] in this type (rounded once from f64, at compile time:
+    /// a run-time `f64 -> f32` conversion is a soft-float call on the
+    /// Cortex-M4F).
+    const SIN_COEF_T: [Self; 10];
+    /// [`COS_COEF`] in this type.
+    const COS_COEF_T: [Self; 10];
+
+    /// Rounds half away from zero in this type's own arithmetic (`roundf`
+    /// for f32: no detour through emulated f64).
+    fn round_native(self) -> Self;
+
+    /// A small whole number (e.g. a quadrant count) as `i64`, saturating.
+    fn to_i64(self) -> i64;
+
     /// Correctly rounded square root. On the Cortex-M4F this is the FPU's
     /// `vsqrt.f32` (14 cycles), bit-identical to `libm::sqrtf`, which is
     /// what the host uses.
@@ -27,6 +41,18 @@ pub trait Real: RealField + Copy + Default + core::fmt::Debug {
 
 impl Real for f32 {
     const SIN_COS_TERMS: usize = 6;
+    const SIN_COEF_T: [f32; 10] = to_f32(SIN_COEF);
+    const COS_COEF_T: [f32; 10] = to_f32(COS_COEF);
+
+    #[inline(always)]
+    fn round_native(self) -> Self {
+        libm::roundf(self)
+    }
+
+    #[inline(always)]
+    fn to_i64(self) -> i64 {
+        self as i64
+    }
 
     #[inline(always)]
     fn lit(x: f64) -> Self {
@@ -46,6 +72,18 @@ impl Real for f32 {
 
 impl Real for f64 {
     const SIN_COS_TERMS: usize = 10;
+    const SIN_COEF_T: [f64; 10] = SIN_COEF;
+    const COS_COEF_T: [f64; 10] = COS_COEF;
+
+    #[inline(always)]
+    fn round_native(self) -> Self {
+        libm::round(self)
+    }
+
+    #[inline(always)]
+    fn to_i64(self) -> i64 {
+        self as i64
+    }
 
     #[inline(always)]
     fn lit(x: f64) -> Self {
@@ -127,12 +165,23 @@ const COS_COEF: [f64; 10] = [
     -1.0 / 6_402_373_705_728_000.0,
 ];
 
+/// The f64 coefficients rounded to f32 (compile time).
+const fn to_f32(c: [f64; 10]) -> [f32; 10] {
+    let mut o = [0.0f32; 10];
+    let mut i = 0;
+    while i < 10 {
+        o[i] = c[i] as f32;
+        i += 1;
+    }
+    o
+}
+
 /// Evaluates `sum_k coef[k] * y^k` by Horner with the first `n` terms.
 #[inline(always)]
-fn horner<T: Real>(coef: &[f64], n: usize, y: T) -> T {
+fn horner<T: Real>(coef: &[T], n: usize, y: T) -> T {
     let mut acc = T::zero();
     for c in coef.iter().take(n).rev() {
-        acc = acc * y + T::lit(*c);
+        acc = acc * y + *c;
     }
     acc
 }
@@ -143,9 +192,10 @@ fn horner<T: Real>(coef: &[f64], n: usize, y: T) -> T {
 #[inline(always)]
 pub fn sinc_omc_sq<T: Real>(x2: T) -> (T, T) {
     let n = T::SIN_COS_TERMS;
-    let sinc = horner(&SIN_COEF, n, x2);
+    let sinc = horner(&T::SIN_COEF_T, n, x2);
     // 1 - cos x = x^2 (1/2 - x^2/24 + ...): series of cos without its first term.
-    let omc = -(x2 * horner(COS_COEF.get(1..).unwrap_or(&[]), n - 1, x2));
+    let cos = T::COS_COEF_T;
+    let omc = -(x2 * horner(cos.get(1..).unwrap_or(&[]), n - 1, x2));
     (sinc, omc)
 }
 
@@ -158,14 +208,14 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
     // for |q| < 2^16 in both types.
     const PIO2_HI: f64 = 1.570_796_370_506_286_6;
     const PIO2_LO: f64 = -4.371_139_000_186_241e-8;
-    let q = (x * T::lit(core::f64::consts::FRAC_2_PI)).round();
+    let q = (x * T::lit(core::f64::consts::FRAC_2_PI)).round_native();
     let r = (x - q * T::lit(PIO2_HI)) - q * T::lit(PIO2_LO);
     let r2 = r * r;
     let (sinc, omc) = sinc_omc_sq(r2);
     let s = r * sinc;
     let c = T::one() - omc;
     // quadrant = q mod 4, for negative q too.
-    let quadrant = (q.to_f64() as i64).rem_euclid(4);
+    let quadrant = q.to_i64().rem_euclid(4);
     match quadrant {
         0 => (s, c),
         1 => (c, -s),
@@ -177,7 +227,7 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
 /// Wraps an angle to `(-pi, pi]`, in rad.
 pub fn wrap_pi<T: Real>(x: T) -> T {
     let two_pi = T::two_pi();
-    let mut y = x - two_pi * (x / two_pi).round();
+    let mut y = x - two_pi * (x / two_pi).round_native();
     if y <= -T::pi() {
         y += two_pi;
     } else if y > T::pi() {

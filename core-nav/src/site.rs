@@ -35,7 +35,7 @@ impl Site {
     /// WGS-84 normal gravity and the real earth rate.
     pub fn new(lat_deg: f64, height_m: f64) -> Self {
         let origin = GeoPoint::from_deg(lat_deg, 0.0, height_m);
-        let s = libm::sin(origin.lat_rad);
+        let s = crate::real::sin_cos(origin.lat_rad).0;
         Self {
             lat_deg,
             origin,
@@ -56,7 +56,8 @@ impl Site {
     /// Earth rate in `n`, `w_ie_n`, rad/s (scaled by `earth_rate_scale`).
     pub fn w_ie_n(&self) -> Vector3<f64> {
         let l = self.origin.lat_rad;
-        earth_rate_n(libm::sin(l), libm::cos(l)) * self.earth_rate_scale
+        let (s, c) = crate::real::sin_cos(l);
+        earth_rate_n(s, c) * self.earth_rate_scale
     }
 
     /// Specific force of a body at rest, in `n`: `[0, 0, -g]`, m/s^2.
@@ -79,9 +80,9 @@ impl Site {
     /// rate, whatever `earth_rate_scale` says: calibration corrects for the
     /// real earth).
     pub fn earth_model(&self, base: &Euler<f64>, axis: Axis) -> EarthModel {
-        let l = self.origin.lat_rad;
+        let (s, c) = crate::real::sin_cos(self.origin.lat_rad);
         EarthModel::Known {
-            w_ie_n: earth_rate_n(libm::sin(l), libm::cos(l)),
+            w_ie_n: earth_rate_n(s, c),
             c_b_n: c_b_n(base),
             axis,
         }

@@ -59,10 +59,15 @@ pub struct ImuSample<T: Real> {
 impl<T: Real> ImuSample<T> {
     /// True when every component is finite.
     pub fn is_finite(&self) -> bool {
-        self.w_is_s
-            .iter()
-            .chain(self.f_s.iter())
-            .all(|x| x.is_finite())
+        // Six plain tests (an iterator chain costs ~100 instructions per
+        // step on the Cortex-M4F at opt-level s).
+        let (w, f) = (&self.w_is_s, &self.f_s);
+        w.x.is_finite()
+            & w.y.is_finite()
+            & w.z.is_finite()
+            & f.x.is_finite()
+            & f.y.is_finite()
+            & f.z.is_finite()
     }
 }
 
