@@ -167,13 +167,11 @@ const COS_COEF: [f64; 10] = [
 
 /// The f64 coefficients rounded to f32 (compile time).
 const fn to_f32(c: [f64; 10]) -> [f32; 10] {
-    let mut o = [0.0f32; 10];
-    let mut i = 0;
-    while i < 10 {
-        o[i] = c[i] as f32;
-        i += 1;
-    }
-    o
+    let [a, b, c, d, e, f, g, h, i, j] = c;
+    [
+        a as f32, b as f32, c as f32, d as f32, e as f32, f as f32, g as f32, h as f32, i as f32,
+        j as f32,
+    ]
 }
 
 /// Evaluates `sum_k coef[k] * y^k` by Horner with the first `n` terms.
