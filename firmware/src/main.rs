@@ -18,9 +18,154 @@ fn main() {
 }
 
 #[cfg(target_os = "none")]
-use defmt_rtt as _;
-#[cfg(target_os = "none")]
 use panic_probe as _;
+
+/// The defmt logger over RTT (SEGGER's protocol: a control block probe-rs
+/// finds by its id, one up channel, non-blocking: bytes that do not fit
+/// are dropped), written here instead of taken from `defmt-rtt`, which
+/// panics when the logger is taken reentrantly: a panic path on the
+/// board. Here a frame started inside another is dropped and counted
+/// (`NESTED`). Interrupts are masked from a frame's start to its end, so
+/// the only nesting is a `Format` implementation that logs.
+#[cfg(target_os = "none")]
+mod logger {
+    use core::cell::UnsafeCell;
+    use core::sync::atomic::{AtomicU32, Ordering};
+
+    /// The up channel's buffer, bytes.
+    const SIZE: usize = 1024;
+
+    #[repr(C)]
+    struct Channel {
+        name: *const u8,
+        buffer: *mut u8,
+        size: u32,
+        write: AtomicU32,
+        read: AtomicU32,
+        flags: AtomicU32,
+    }
+
+    /// SEGGER's RTT control block (layout fixed by the protocol).
+    #[repr(C)]
+    pub struct Header {
+        id: [u8; 16],
+        max_up_channels: u32,
+        max_down_channels: u32,
+        up: Channel,
+    }
+
+    // SAFETY: the pointers are to statics; the host reads the block, the
+    // target writes `write` (atomic) and the buffer below it.
+    unsafe impl Sync for Header {}
+
+    struct Buffer(UnsafeCell<[u8; SIZE]>);
+    // SAFETY: written only inside a frame, with interrupts masked.
+    unsafe impl Sync for Buffer {}
+    static BUFFER: Buffer = Buffer(UnsafeCell::new([0; SIZE]));
+    static NAME: [u8; 6] = *b"defmt\0";
+
+    /// Non-blocking, trim: write what fits.
+    const MODE_TRIM: u32 = 1;
+
+    #[no_mangle]
+    static _SEGGER_RTT: Header = Header {
+        id: *b"SEGGER RTT\0\0\0\0\0\0",
+        max_up_channels: 1,
+        max_down_channels: 0,
+        up: Channel {
+            name: NAME.as_ptr(),
+            buffer: BUFFER.0.get().cast::<u8>(),
+            size: SIZE as u32,
+            write: AtomicU32::new(0),
+            read: AtomicU32::new(0),
+            flags: AtomicU32::new(MODE_TRIM),
+        },
+    };
+
+    /// Frames dropped because they started inside another.
+    pub static NESTED: AtomicU32 = AtomicU32::new(0);
+    /// Bytes dropped because the host had not read the buffer.
+    pub static OVERFLOW: AtomicU32 = AtomicU32::new(0);
+
+    struct State {
+        depth: u32,
+        /// Interrupts were enabled when the frame started.
+        enable: bool,
+        encoder: defmt::Encoder,
+    }
+    struct Shared(UnsafeCell<State>);
+    // SAFETY: touched only with interrupts masked (acquire to release).
+    unsafe impl Sync for Shared {}
+    static STATE: Shared = Shared(UnsafeCell::new(State {
+        depth: 0,
+        enable: false,
+        encoder: defmt::Encoder::new(),
+    }));
+
+    fn write_all(bytes: &[u8]) {
+        let ch = &_SEGGER_RTT.up;
+        let mut w = ch.write.load(Ordering::Relaxed) as usize % SIZE;
+        let r = ch.read.load(Ordering::Relaxed) as usize;
+        for (i, b) in bytes.iter().enumerate() {
+            let next = (w + 1) % SIZE;
+            if next == r {
+                let left = u32::try_from(bytes.len() - i).unwrap_or(u32::MAX);
+                OVERFLOW.fetch_add(left, Ordering::Relaxed);
+                break;
+            }
+            // SAFETY: w < SIZE (reduced above); interrupts are masked.
+            unsafe { BUFFER.0.get().cast::<u8>().add(w).write_volatile(*b) };
+            w = next;
+        }
+        ch.write.store(w as u32, Ordering::Release);
+    }
+
+    #[defmt::global_logger]
+    struct Logger;
+
+    // SAFETY: defmt's contract: acquire, writes, release, in that order;
+    // the state is only touched with interrupts masked.
+    unsafe impl defmt::Logger for Logger {
+        fn acquire() {
+            let enable = cortex_m::register::primask::read().is_active();
+            cortex_m::interrupt::disable();
+            // SAFETY: interrupts are masked.
+            let st = unsafe { &mut *STATE.0.get() };
+            st.depth += 1;
+            if st.depth > 1 {
+                NESTED.fetch_add(1, Ordering::Relaxed);
+                return;
+            }
+            st.enable = enable;
+            st.encoder.start_frame(write_all);
+        }
+
+        unsafe fn flush() {}
+
+        unsafe fn release() {
+            // SAFETY: interrupts are masked since `acquire`.
+            let st = unsafe { &mut *STATE.0.get() };
+            if st.depth > 1 {
+                st.depth -= 1;
+                return;
+            }
+            st.encoder.end_frame(write_all);
+            st.depth = 0;
+            if st.enable {
+                // SAFETY: they were enabled when the frame started.
+                unsafe { cortex_m::interrupt::enable() };
+            }
+        }
+
+        unsafe fn write(bytes: &[u8]) {
+            // SAFETY: interrupts are masked since `acquire`.
+            let st = unsafe { &mut *STATE.0.get() };
+            if st.depth == 1 {
+                st.encoder.write(bytes, write_all);
+            }
+        }
+    }
+}
 
 /// The board: every pin in one place (Adafruit Feather STM32F405 Express,
 /// or any STM32F405/F407 board with a 12 MHz crystal).
@@ -46,6 +191,112 @@ mod board {
     pub const CAL_SECTOR: u8 = 11;
     /// Its offset from the start of flash.
     pub const CAL_OFFSET: usize = 0xE_0000;
+    /// The start of flash.
+    pub const FLASH_BASE: usize = 0x0800_0000;
+}
+
+/// The calibration record's store: erase its sector and program it byte by
+/// byte (RM0090 3.6, x8 parallelism: any supply voltage), with the PAC
+/// directly. The HAL's `unlocked()` asserts that the unlock took (a panic
+/// path on the board); here a flash that stays locked, or any error flag
+/// the controller raises, is a value.
+#[cfg(target_os = "none")]
+mod store {
+    use stm32f4xx_hal::pac::FLASH;
+
+    /// Why a store failed.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, defmt::Format)]
+    pub enum StoreError {
+        /// The unlock sequence did not clear LOCK.
+        Locked,
+        /// The controller's status flags after an operation (SR bits
+        /// 4-7: write protection, programming alignment, parallelism,
+        /// sequence; bit 1: operation).
+        Status(u32),
+        /// The record does not fit in the sector at that offset.
+        OutOfRange,
+    }
+
+    const KEY1: u32 = 0x4567_0123;
+    const KEY2: u32 = 0xCDEF_89AB;
+    /// SR error bits: OPERR, WRPERR, PGAERR, PGPERR, PGSERR.
+    const ERRORS: u32 = 0b1111_0010;
+
+    fn wait(flash: &FLASH) {
+        while flash.sr().read().bsy().bit_is_set() {}
+    }
+
+    fn check(flash: &FLASH) -> Result<(), StoreError> {
+        let sr = flash.sr().read().bits() & ERRORS;
+        // Clear them for the next operation (write 1 to clear).
+        // SAFETY: writing ones to the error flags only clears them.
+        flash.sr().write(|w| unsafe { w.bits(ERRORS) });
+        if sr == 0 {
+            Ok(())
+        } else {
+            Err(StoreError::Status(sr))
+        }
+    }
+
+    /// Erases `sector` and programs `data` at `offset` from the start of
+    /// flash; locks the flash again whatever happens.
+    pub fn store(flash: &FLASH, sector: u8, offset: usize, data: &[u8]) -> Result<(), StoreError> {
+        // Sector 11 spans 0xE_0000..0x10_0000 (128 KiB).
+        if sector != super::board::CAL_SECTOR
+            || offset < 0xE_0000
+            || offset + data.len() > 0x10_0000
+        {
+            return Err(StoreError::OutOfRange);
+        }
+        wait(flash);
+        if flash.cr().read().lock().bit_is_set() {
+            // SAFETY: the documented unlock keys.
+            flash.keyr().write(|w| unsafe { w.key().bits(KEY1) });
+            flash.keyr().write(|w| unsafe { w.key().bits(KEY2) });
+        }
+        if flash.cr().read().lock().bit_is_set() {
+            return Err(StoreError::Locked);
+        }
+        let r = erase_and_program(flash, sector, offset, data);
+        flash
+            .cr()
+            .modify(|_, w| w.pg().clear_bit().ser().clear_bit().lock().set_bit());
+        r
+    }
+
+    fn erase_and_program(
+        flash: &FLASH,
+        sector: u8,
+        offset: usize,
+        data: &[u8],
+    ) -> Result<(), StoreError> {
+        let _ = check(flash);
+        // SAFETY: SNB takes the sector number (0-11 on the F405).
+        flash.cr().modify(|_, w| unsafe {
+            w.psize()
+                .bits(0)
+                .snb()
+                .bits(sector)
+                .ser()
+                .set_bit()
+                .pg()
+                .clear_bit()
+        });
+        flash.cr().modify(|_, w| w.strt().set_bit());
+        wait(flash);
+        check(flash)?;
+        flash
+            .cr()
+            .modify(|_, w| unsafe { w.ser().clear_bit().psize().bits(0).pg().set_bit() });
+        for (i, b) in data.iter().enumerate() {
+            let addr = (super::board::FLASH_BASE + offset + i) as *mut u8;
+            // SAFETY: inside the erased sector (checked above); PG set, x8.
+            unsafe { core::ptr::write_volatile(addr, *b) };
+            wait(flash);
+            check(flash)?;
+        }
+        Ok(())
+    }
 }
 
 #[cfg(target_os = "none")]
@@ -60,13 +311,13 @@ mod app {
     use rtic_monotonics::systick::prelude::*;
     use stm32f4xx_hal::flash::FlashExt;
     use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
-    use stm32f4xx_hal::pac::{FLASH, SPI1, TIM1, TIM4, USART1};
+    use stm32f4xx_hal::pac::{FLASH, SPI1, TIM1, TIM2, TIM4, USART1};
     use stm32f4xx_hal::prelude::*;
     use stm32f4xx_hal::qei::Qei;
     use stm32f4xx_hal::rcc::Config as RccConfig;
     use stm32f4xx_hal::serial::{Rx, Tx};
     use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
-    use stm32f4xx_hal::timer::PwmChannel;
+    use stm32f4xx_hal::timer::{CounterHz, Event as TimerEvent, Flag as TimerFlag, PwmChannel};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
     systick_monotonic!(Mono, 1_000);
@@ -104,6 +355,8 @@ mod app {
 
     #[local]
     struct Local {
+        /// The 1 kHz tick's timer.
+        timer: CounterHz<TIM2>,
         imu: Option<Icm42688<ImuSpi>>,
         wdg: IndependentWatchdog,
         qei: Qei<TIM4>,
@@ -201,12 +454,21 @@ mod app {
         // scheduler stalls for 100 ms the chip resets (motor PWM off at reset).
         let mut wdg = IndependentWatchdog::new(dp.IWDG);
         wdg.start(stm32f4xx_hal::prelude::_fugit_ExtU32::millis(100u32));
-        if imu.is_some() && tick::spawn().is_err() {
-            defmt::error!("tick already running");
+        // The 1 kHz tick: TIM2's update interrupt runs the `tick` task
+        // (a hardware task: no async executor, whose resumed-future check
+        // and timer-queue assertion are panic paths on the board).
+        let mut timer = dp.TIM2.counter_hz(&mut rcc);
+        if imu.is_some() {
+            if timer.start(1.kHz()).is_err() {
+                defmt::error!("TIM2 refused 1 kHz: no tick");
+            } else {
+                timer.listen(TimerEvent::Update);
+            }
         }
         (
             Shared { app },
             Local {
+                timer,
                 imu,
                 wdg,
                 qei,
@@ -220,17 +482,15 @@ mod app {
         )
     }
 
-    /// 1 kHz: the IMU, the rate loop, the encoder at 50 Hz, the watchdog.
-    #[task(priority = 2, shared = [app], local = [imu, wdg, qei, pwm, dir, k: u32 = 0])]
-    async fn tick(mut cx: tick::Context) {
-        let mut next = Mono::now();
-        loop {
-            // Two fugit versions: name the trait (toolchain notes).
-            next += rtic_monotonics::fugit::ExtU32::millis(1u32);
-            Mono::delay_until(next).await;
+    /// 1 kHz (TIM2's update): the IMU, the rate loop, the encoder at 50
+    /// Hz, the watchdog. The board's clock is the tick count (1 ms each).
+    #[task(binds = TIM2, priority = 2, shared = [app], local = [timer, imu, wdg, qei, pwm, dir, k: u32 = 0])]
+    fn tick(mut cx: tick::Context) {
+        cx.local.timer.clear_flags(TimerFlag::Update);
+        {
             cx.local.wdg.feed();
-            let t_us = u64::from(Mono::now().duration_since_epoch().as_millis()) * 1_000;
             *cx.local.k = cx.local.k.wrapping_add(1);
+            let t_us = u64::from(*cx.local.k) * 1_000;
             let k = *cx.local.k;
             let sample = cx.local.imu.as_mut().map(|imu| imu.read_si());
             let encoder = k.is_multiple_of(20).then(|| cx.local.qei.count()); // TIM4: a 16-bit counter
@@ -290,13 +550,14 @@ mod app {
             }
             if let Some(rec) = stored {
                 if *cx.local.written != Some(rec) {
-                    let mut fl = cx.local.flash.unlocked();
-                    let ok = fl.erase(board::CAL_SECTOR).is_ok()
-                        && fl.program(board::CAL_OFFSET, rec.iter()).is_ok();
-                    if ok {
-                        defmt::info!("calibration stored in flash");
-                    } else {
-                        defmt::error!("calibration: flash write failed");
+                    match crate::store::store(
+                        cx.local.flash,
+                        board::CAL_SECTOR,
+                        board::CAL_OFFSET,
+                        &rec,
+                    ) {
+                        Ok(()) => defmt::info!("calibration stored in flash"),
+                        Err(e) => defmt::error!("calibration: flash write failed: {}", e),
                     }
                     *cx.local.written = Some(rec);
                 }

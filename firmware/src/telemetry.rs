@@ -654,7 +654,10 @@ impl Decoder {
                 return None;
             }
         };
-        let (p, c) = out.split_at(m - 2);
+        let Some((p, c)) = out.split_at_checked(m - 2) else {
+            self.stats.corrupt += 1;
+            return None;
+        };
         let crc = u16::from_le_bytes([
             c.first().copied().unwrap_or(0),
             c.get(1).copied().unwrap_or(0),
