@@ -190,6 +190,18 @@ pub const TX_QUEUE: usize = 32;
 /// Encoder reads kept for the table rate (0.5 s at 50 Hz, plus one).
 pub const ENC_HIST: usize = 26;
 
+/// What the board's memory holds besides the mechanization: one
+/// calibration phase's sums at a time (the still phase's, then the
+/// rotating phase's), or the aided navigator. Never both: an aided board
+/// does not calibrate on the table. One enum, so the larger of the two
+/// (the navigator, 7 KiB) is the static RAM they cost, not their sum.
+// No heap on the board: the variants share memory, which is the point.
+#[allow(clippy::large_enum_variant)]
+enum Work {
+    Phase(PhaseAccumulator),
+    Aided(AidedNav<f32>),
+}
+
 /// The board's logic.
 pub struct App {
     cfg: AppConfig,
@@ -210,8 +222,8 @@ pub struct App {
     rate_window: Option<(u64, i64)>,
     stall_since: Option<u64>,
     rate_ok_since: Option<u64>,
-    static_acc: PhaseAccumulator,
-    rot_acc: PhaseAccumulator,
+    /// The calibration phase's sums or the aided navigator.
+    work: Work,
     static_phase: Option<Phase>,
     /// The calibration in use.
     pub calibration: Option<GyroCalibration>,
@@ -222,7 +234,6 @@ pub struct App {
     /// The accepted calibration minus `previous`: (bias rad/s, `M k`).
     pub change: Option<(Vector3<f64>, Vector3<f64>)>,
     nav: Option<Strapdown<f32>>,
-    aided: Option<AidedNav<f32>>,
     nav_count: u32,
     last_imu_us: Option<u64>,
     rate_meas: f32,
@@ -263,15 +274,13 @@ impl App {
             rate_window: None,
             stall_since: None,
             rate_ok_since: None,
-            static_acc: PhaseAccumulator::new(0.0, Axis::Z),
-            rot_acc: PhaseAccumulator::new(cfg.scheme_rate(), Axis::Z),
+            work: Work::Phase(PhaseAccumulator::new(0.0, Axis::Z)),
             static_phase: None,
             calibration: None,
             stored: None,
             previous: None,
             change: None,
             nav: None,
-            aided: None,
             nav_count: 0,
             last_imu_us: None,
             rate_meas: 0.0,
@@ -314,12 +323,41 @@ impl App {
 
     /// The navigation state (while navigating).
     pub fn nav(&self) -> Option<&Strapdown<f32>> {
-        self.aided.as_ref().map(AidedNav::nav).or(self.nav.as_ref())
+        self.aided().map(AidedNav::nav).or(self.nav.as_ref())
     }
 
     /// The aided navigator (while navigating with it).
     pub fn aided(&self) -> Option<&AidedNav<f32>> {
-        self.aided.as_ref()
+        match &self.work {
+            Work::Aided(a) => Some(a),
+            Work::Phase(_) => None,
+        }
+    }
+
+    /// Adds a sample to the calibration phase's sums; a refused sample is
+    /// a counted fault.
+    fn accumulate(
+        &mut self,
+        t_us: u64,
+        w: &Vector3<f32>,
+        f: &Vector3<f32>,
+        angle: TableAngle<f32>,
+    ) {
+        let refused = match &mut self.work {
+            Work::Phase(acc) => acc.push(t_us, w, f, angle).is_err(),
+            Work::Aided(_) => true,
+        };
+        if refused {
+            self.fault(t_us, Fault::NavRefused);
+        }
+    }
+
+    /// The calibration phase's result.
+    fn finish_phase(&self) -> Result<Phase, core_nav::calib::CalibError> {
+        match &self.work {
+            Work::Phase(acc) => acc.finish(&self.checks(), self.cfg.nav_period_us as f64 * 1e-6),
+            Work::Aided(_) => Err(core_nav::calib::CalibError::NotEnoughData),
+        }
     }
 
     fn emit(&mut self, t: Telemetry) {
@@ -452,14 +490,9 @@ impl App {
         match self.mode {
             Mode::CalStatic(_) if self.cfg.aided.is_some() => self.start_aided(t_us, s, angle),
             Mode::CalStatic(t0) => {
-                if self.static_acc.push(t_us, &w, &f, angle).is_err() {
-                    self.fault(t_us, Fault::NavRefused);
-                }
+                self.accumulate(t_us, &w, &f, angle);
                 if (t_us - t0) as f64 * 1e-6 >= self.cfg.static_s {
-                    match self
-                        .static_acc
-                        .finish(&self.checks(), self.cfg.nav_period_us as f64 * 1e-6)
-                    {
+                    match self.finish_phase() {
                         Ok(p) => {
                             self.static_phase = Some(p);
                             self.start_scheme(t_us, angle);
@@ -479,14 +512,12 @@ impl App {
                         },
                     );
                 } else if self.rate_ok_since.is_some_and(|s| t_us - s >= 2_000_000) {
-                    self.rot_acc = PhaseAccumulator::new(self.cfg.scheme_rate(), Axis::Z);
+                    self.work = Work::Phase(PhaseAccumulator::new(self.cfg.scheme_rate(), Axis::Z));
                     self.mode = Mode::CalRotate(t_us);
                 }
             }
             Mode::CalRotate(t0) => {
-                if self.rot_acc.push(t_us, &w, &f, angle).is_err() {
-                    self.fault(t_us, Fault::NavRefused);
-                }
+                self.accumulate(t_us, &w, &f, angle);
                 if (t_us - t0) as f64 * 1e-6 >= self.cfg.rotate_s {
                     self.finish_calibration(t_us, raw, s, angle);
                 }
@@ -524,7 +555,7 @@ impl App {
         self.ctrl.reset();
         self.scheme_t0 = None;
         self.rate_ok_since = None;
-        self.static_acc = PhaseAccumulator::new(0.0, Axis::Z);
+        self.work = Work::Phase(PhaseAccumulator::new(0.0, Axis::Z));
         self.nav = None;
         self.mode = Mode::CalStatic(t_us);
     }
@@ -544,10 +575,7 @@ impl App {
         s: &Sample,
         angle: TableAngle<f32>,
     ) {
-        let rot = match self
-            .rot_acc
-            .finish(&self.checks(), self.cfg.nav_period_us as f64 * 1e-6)
-        {
+        let rot = match self.finish_phase() {
             Ok(p) => p,
             Err(e) => return self.refuse(t_us, e),
         };
@@ -637,7 +665,7 @@ impl App {
         let first = self.imu_sample(t_us, s);
         match AidedNav::new(cfg, a.origin, &q_b_n, &angle, &first, a.cfg) {
             Ok(n) => {
-                self.aided = Some(n);
+                self.work = Work::Aided(n);
                 self.start_scheme(t_us, angle);
                 self.mode = Mode::Navigating;
             }
@@ -647,7 +675,7 @@ impl App {
 
     fn navigate(&mut self, t_us: u64, s: &Sample, angle: TableAngle<f32>) {
         let sample = self.imu_sample(t_us, s);
-        let step = if let Some(a) = self.aided.as_mut() {
+        let step = if let Work::Aided(a) = &mut self.work {
             let rate = match (self.enc_hist.front(), self.enc_hist.back()) {
                 (Some((t0, a0)), Some((t1, a1))) if t1 > t0 => {
                     a1.minus(a0) / ((t1 - t0) as f32 * 1e-6)
@@ -709,7 +737,7 @@ impl App {
         // The static phase counts only while the table is at rest (after a
         // refusal the table may still be coasting down).
         if moved && matches!(self.mode, Mode::CalStatic(_)) {
-            self.static_acc = PhaseAccumulator::new(0.0, Axis::Z);
+            self.work = Work::Phase(PhaseAccumulator::new(0.0, Axis::Z));
             self.mode = Mode::CalStatic(t_us);
         }
         self.last_count = Some((t_us, counts));
@@ -801,7 +829,7 @@ impl App {
                 let a = self.table_angle(t_us);
                 self.start_scheme(t_us, a);
                 if matches!(self.mode, Mode::Stopped(_)) {
-                    self.mode = if self.nav.is_some() {
+                    self.mode = if self.nav().is_some() {
                         Mode::Navigating
                     } else {
                         Mode::CalStatic(t_us)
@@ -816,17 +844,17 @@ impl App {
             }
             // The aided filter estimates the gyro errors itself, and a
             // restart would lose the vehicle's position: refused.
-            Command::Recalibrate if self.aided.is_some() => reason::AIDED,
+            Command::Recalibrate if self.aided().is_some() => reason::AIDED,
             Command::Recalibrate => {
                 self.restart_calibration(t_us);
                 0
             }
-            Command::GnssFix(f) => match self.aided.as_mut() {
-                Some(a) => {
+            Command::GnssFix(f) => match &mut self.work {
+                Work::Aided(a) => {
                     a.gnss(&f);
                     0
                 }
-                None => reason::NOT_AIDED,
+                Work::Phase(_) => reason::NOT_AIDED,
             },
             Command::SetScheme {
                 kind,
