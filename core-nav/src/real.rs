@@ -206,6 +206,14 @@ pub fn sin_cos<T: Real>(x: T) -> (T, T) {
     // for |q| < 2^16 in both types.
     const PIO2_HI: f64 = 1.570_796_370_506_286_6;
     const PIO2_LO: f64 = -4.371_139_000_186_241e-8;
+    // Small arguments (latitude offsets, half-angles of a step's rotation:
+    // most calls) need no reduction: the same bits as quadrant 0 below,
+    // without the rounding.
+    let x2 = x * x;
+    if x2 <= T::lit(core::f64::consts::FRAC_PI_4 * core::f64::consts::FRAC_PI_4) {
+        let (sinc, omc) = sinc_omc_sq(x2);
+        return (x * sinc, T::one() - omc);
+    }
     let q = (x * T::lit(core::f64::consts::FRAC_2_PI)).round_native();
     let r = (x - q * T::lit(PIO2_HI)) - q * T::lit(PIO2_LO);
     let r2 = r * r;
