@@ -303,12 +303,12 @@ mod store {
 #[rtic::app(device = stm32f4xx_hal::pac, dispatchers = [USART2])]
 mod app {
     use crate::board;
+    use core::sync::atomic::{AtomicU32, Ordering};
     use embedded_hal::delay::DelayNs;
     use embedded_hal_02::Qei as _;
     use embedded_hal_bus::spi::ExclusiveDevice;
     use firmware::app::{App, AppConfig, CAL_RECORD};
     use firmware::icm42688::{Config, Icm42688};
-    use rtic_monotonics::systick::prelude::*;
     use stm32f4xx_hal::flash::FlashExt;
     use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
     use stm32f4xx_hal::pac::{FLASH, SPI1, TIM1, TIM2, TIM4, USART1};
@@ -320,7 +320,9 @@ mod app {
     use stm32f4xx_hal::timer::{CounterHz, Event as TimerEvent, Flag as TimerFlag, PwmChannel};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
-    systick_monotonic!(Mono, 1_000);
+    /// The board's clock: 1 ms ticks of the TIM2 task, which the idle
+    /// task reads too (commands and telemetry on one time base).
+    static TICK_MS: AtomicU32 = AtomicU32::new(0);
 
     /// The IMU's SPI device: the bus, chip select, and a real delay (with
     /// `NoDelay` a transaction holding a delay operation panics: a panic
@@ -375,7 +377,6 @@ mod app {
         let mut rcc = dp
             .RCC
             .freeze(RccConfig::hse(board::HSE_HZ.Hz()).sysclk(board::SYSCLK_HZ.Hz()));
-        Mono::start(cx.core.SYST, board::SYSCLK_HZ);
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpioc = dp.GPIOC.split(&mut rcc);
@@ -490,6 +491,7 @@ mod app {
         {
             cx.local.wdg.feed();
             *cx.local.k = cx.local.k.wrapping_add(1);
+            TICK_MS.store(*cx.local.k, Ordering::Relaxed);
             let t_us = u64::from(*cx.local.k) * 1_000;
             let k = *cx.local.k;
             let sample = cx.local.imu.as_mut().map(|imu| imu.read_si());
@@ -545,7 +547,7 @@ mod app {
                 }
             }
             while let Ok(b) = cx.local.rx.read() {
-                let t_us = u64::from(Mono::now().duration_since_epoch().as_millis()) * 1_000;
+                let t_us = u64::from(TICK_MS.load(Ordering::Relaxed)) * 1_000;
                 cx.shared.app.lock(|app| app.on_rx(t_us, &[b]));
             }
             if let Some(rec) = stored {
