@@ -491,7 +491,7 @@ impl App {
             Mode::CalStatic(_) if self.cfg.aided.is_some() => self.start_aided(t_us, s, angle),
             Mode::CalStatic(t0) => {
                 self.accumulate(t_us, &w, &f, angle);
-                if (t_us - t0) as f64 * 1e-6 >= self.cfg.static_s {
+                if t_us.saturating_sub(t0) as f64 * 1e-6 >= self.cfg.static_s {
                     match self.finish_phase() {
                         Ok(p) => {
                             self.static_phase = Some(p);
@@ -503,7 +503,7 @@ impl App {
                 }
             }
             Mode::CalSpinUp(t0) => {
-                if (t_us - t0) as f64 * 1e-6 > self.cfg.spinup_timeout_s {
+                if t_us.saturating_sub(t0) as f64 * 1e-6 > self.cfg.spinup_timeout_s {
                     self.refuse(
                         t_us,
                         core_nav::calib::CalibError::RateNotReached {
@@ -511,14 +511,17 @@ impl App {
                             commanded_radps: self.cfg.scheme_rate(),
                         },
                     );
-                } else if self.rate_ok_since.is_some_and(|s| t_us - s >= 2_000_000) {
+                } else if self
+                    .rate_ok_since
+                    .is_some_and(|s| t_us.saturating_sub(s) >= 2_000_000)
+                {
                     self.work = Work::Phase(PhaseAccumulator::new(self.cfg.scheme_rate(), Axis::Z));
                     self.mode = Mode::CalRotate(t_us);
                 }
             }
             Mode::CalRotate(t0) => {
                 self.accumulate(t_us, &w, &f, angle);
-                if (t_us - t0) as f64 * 1e-6 >= self.cfg.rotate_s {
+                if t_us.saturating_sub(t0) as f64 * 1e-6 >= self.cfg.rotate_s {
                     self.finish_calibration(t_us, raw, s, angle);
                 }
             }
@@ -710,7 +713,7 @@ impl App {
             self.duty = 0.0;
             return;
         };
-        let r: Reference = self.profile.at((t_us - t0) as f64 * 1e-6);
+        let r: Reference = self.profile.at(t_us.saturating_sub(t0) as f64 * 1e-6);
         let a = angle.to_rad();
         let err = r.angle as f32 - (a - a0);
         self.duty = self.ctrl.update(&r, err, self.rate_meas, dt);
@@ -762,16 +765,16 @@ impl App {
     /// Encoder rate over ~1 s against the command: spin-up done, or a stall.
     fn check_rate(&mut self, t_us: u64, counts: i64) {
         let (tw, cw) = *self.rate_window.get_or_insert((t_us, counts));
-        if t_us - tw < 500_000 {
+        if t_us.saturating_sub(tw) < 500_000 {
             return;
         }
         self.rate_window = Some((t_us, counts));
         let rate = EncoderScale::new(self.cfg.counts_per_rev)
-            .rate((counts - cw) as f64, (t_us - tw) as f64 * 1e-6);
+            .rate((counts - cw) as f64, t_us.saturating_sub(tw) as f64 * 1e-6);
         let Some((t0, _)) = self.scheme_t0 else {
             return;
         };
-        let want = self.profile.at((t_us - t0) as f64 * 1e-6).rate;
+        let want = self.profile.at(t_us.saturating_sub(t0) as f64 * 1e-6).rate;
         if libm::fabs(want) < 2f64.to_radians() {
             return;
         }
@@ -782,7 +785,7 @@ impl App {
         }
         if libm::fabs(rate) < 0.2 * libm::fabs(want) {
             let since = *self.stall_since.get_or_insert(t_us);
-            if t_us - since >= 1_000_000 {
+            if t_us.saturating_sub(since) >= 1_000_000 {
                 self.stop(t_us, Fault::MotorStall);
             }
         } else {

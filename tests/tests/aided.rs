@@ -249,3 +249,53 @@ fn the_board_navigates_a_drive_as_the_host_does() {
     assert!(counts.zupts.abs_diff(host.zupts) * 20 <= host.zupts);
     assert!(counts.fixes_used > 200);
 }
+
+#[test]
+fn an_aided_board_stopped_by_a_fault_navigates_on_after_start() {
+    // The board's logic in aided mode through half a drive (the QEMU
+    // test's stream), then a fault that stops it (the IMU silent for
+    // 200 ms: the watchdog), then `Start` over the command link: it must
+    // carry on from where it was, not start again at the origin with the
+    // attitude it powered up with.
+    use firmware::app::{App, Mode};
+    use firmware::replay::{decode, record_body, step, Header, HEADER, RECORD_HEAD};
+    use firmware::telemetry::{frame, Command, MAX_FRAME, MAX_PAYLOAD};
+    let p = ImuSpec::icm42688();
+    let mut c = outages::config_with(DriveKind::City, &p, true, 5, &[]);
+    c.duration_s = 120.0;
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let bytes = rins::qemu_replay::build(&rec, 16_384).unwrap().bytes;
+    let header = Header::decode(&bytes[..HEADER]).unwrap();
+    let mut app = App::new(header.config()).unwrap();
+    let mut at = HEADER;
+    let mut last_t = 0;
+    for _ in 0..header.records / 2 {
+        let n = RECORD_HEAD + record_body(bytes[at]).unwrap();
+        let e = decode(&bytes[at..at + n]).unwrap();
+        if let firmware::replay::Event::Imu { t_us, .. } = e {
+            last_t = t_us;
+        }
+        step(&mut app, &e);
+        at += n;
+    }
+    assert_eq!(app.mode, Mode::Navigating);
+    let p_before = app.aided().unwrap().nav().state().p_n;
+    assert!(p_before.norm() > 50.0, "the car has moved: {p_before}");
+    app.check_watchdog(last_t + 200_000);
+    assert!(matches!(app.mode, Mode::Stopped(_)), "{:?}", app.mode);
+    let mut pl = [0u8; MAX_PAYLOAD];
+    let mut fr = [0u8; MAX_FRAME];
+    let n = Command::Start.payload(7, &mut pl).unwrap();
+    let m = frame(&pl[..n], &mut fr).unwrap();
+    app.on_rx(last_t + 200_000, &fr[..m]);
+    assert_eq!(app.mode, Mode::Navigating);
+    // The next sample keeps navigating from the same state (not a fresh
+    // start at the origin).
+    let n = RECORD_HEAD + record_body(bytes[at]).unwrap();
+    step(&mut app, &decode(&bytes[at..at + n]).unwrap());
+    let p_after = app.aided().unwrap().nav().state().p_n;
+    assert!(
+        (p_after - p_before).norm() < 50.0,
+        "{p_before} -> {p_after}"
+    );
+}
