@@ -4,7 +4,7 @@
 //! simulated runs, `truth.csv` (the base's true motion, trajectory-v1
 //! columns).
 
-use crate::recording::{parse_columns, RecordingError};
+use crate::recording::{err, parse_columns, RecordingError};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -109,14 +109,6 @@ pub const TRUTH_COLS: [&str; 10] = [
     "heading_deg",
 ];
 
-fn meta_err(path: &Path, message: String) -> RecordingError {
-    RecordingError {
-        path: path.to_path_buf(),
-        line: None,
-        message,
-    }
-}
-
 /// The moving-base keys of `meta.toml` (`None` unless `[base] moving =
 /// true`).
 ///
@@ -125,12 +117,12 @@ fn meta_err(path: &Path, message: String) -> RecordingError {
 pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, RecordingError> {
     let t: toml::Table = text
         .parse()
-        .map_err(|e| meta_err(path, format!("not TOML: {e}")))?;
+        .map_err(|e| err(path, None, format!("not TOML: {e}")))?;
     let moving = match t.get("base").and_then(|b| b.get("moving")) {
         None => false,
         Some(v) => v
             .as_bool()
-            .ok_or_else(|| meta_err(path, "[base] moving: expected true or false".into()))?,
+            .ok_or_else(|| err(path, None, "[base] moving: expected true or false"))?,
     };
     if !moving {
         return Ok(None);
@@ -140,7 +132,7 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, Recordi
         None => 0.0,
         Some(v) => num(v)
             .filter(|x| x.is_finite())
-            .ok_or_else(|| meta_err(path, "[site] longitude_deg: expected a number".into()))?,
+            .ok_or_else(|| err(path, None, "[site] longitude_deg: expected a number"))?,
     };
     let gnss_meta = match t.get("gnss") {
         None => None,
@@ -148,21 +140,20 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, Recordi
             let a = g
                 .get("antenna_b_m")
                 .and_then(|v| v.as_array())
-                .ok_or_else(|| meta_err(path, "[gnss] antenna_b_m: expected [x, y, z]".into()))?;
+                .ok_or_else(|| err(path, None, "[gnss] antenna_b_m: expected [x, y, z]"))?;
             let v: Vec<f64> = a.iter().filter_map(num).filter(|x| x.is_finite()).collect();
             let [x, y, z] = v[..] else {
-                return Err(meta_err(
+                return Err(err(
                     path,
-                    "[gnss] antenna_b_m: expected three numbers".into(),
+                    None,
+                    "[gnss] antenna_b_m: expected three numbers",
                 ));
             };
             let rate_hz = g
                 .get("rate_hz")
                 .and_then(num)
                 .filter(|r| r.is_finite() && *r > 0.0)
-                .ok_or_else(|| {
-                    meta_err(path, "[gnss] rate_hz: expected a positive number".into())
-                })?;
+                .ok_or_else(|| err(path, None, "[gnss] rate_hz: expected a positive number"))?;
             Some(GnssMeta {
                 antenna_b_m: [x, y, z],
                 rate_hz,
@@ -187,18 +178,10 @@ pub fn parse_gnss(text: &str, path: &Path) -> Result<Vec<GnssRow>, RecordingErro
     rows.into_iter()
         .map(|(line, v)| {
             let [t_s, lat_deg, lon_deg, height_m, vn, ve, vd, sh, sv, sw] = v[..] else {
-                return Err(RecordingError {
-                    path: path.to_path_buf(),
-                    line: Some(line),
-                    message: "wrong number of columns".into(),
-                });
+                return Err(err(path, Some(line), "wrong number of columns"));
             };
             if !(sh > 0.0 && sv > 0.0 && sw > 0.0) {
-                return Err(RecordingError {
-                    path: path.to_path_buf(),
-                    line: Some(line),
-                    message: "sigmas must be positive".into(),
-                });
+                return Err(err(path, Some(line), "sigmas must be positive"));
             }
             Ok(GnssRow {
                 t_s,
@@ -223,11 +206,7 @@ pub fn parse_truth(text: &str, path: &Path) -> Result<Vec<TruthRow>, RecordingEr
     rows.into_iter()
         .map(|(line, v)| {
             let [t_s, n, e, d, vn, ve, vd, r, p, h] = v[..] else {
-                return Err(RecordingError {
-                    path: path.to_path_buf(),
-                    line: Some(line),
-                    message: "wrong number of columns".into(),
-                });
+                return Err(err(path, Some(line), "wrong number of columns"));
             };
             Ok(TruthRow {
                 t_s,

@@ -175,7 +175,9 @@ impl fmt::Display for RecordingError {
 
 impl std::error::Error for RecordingError {}
 
-fn err(path: &Path, line: Option<usize>, message: impl Into<String>) -> RecordingError {
+/// A recording error in `path` (at 1-based `line` when on one): the one
+/// constructor every reader uses.
+pub(crate) fn err(path: &Path, line: Option<usize>, message: impl Into<String>) -> RecordingError {
     RecordingError {
         path: path.to_path_buf(),
         line,
