@@ -3,7 +3,7 @@
 //! naming the file, never a panic.
 #![no_main]
 
-use hal_sim::recording::{parse_imu, parse_meta, parse_table};
+use recording::{parse_imu, parse_meta, parse_table};
 use libfuzzer_sys::fuzz_target;
 use std::path::Path;
 

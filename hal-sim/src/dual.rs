@@ -8,12 +8,12 @@
 //! z inner_dot`.
 
 use crate::imu::{ImuModel, ImuSpec};
-use crate::recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
 use crate::world::Site;
 use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
 use core_nav::scheme::{DualAxisProfile, Profile};
 use core_nav::table::Axis;
 use nalgebra::{Matrix3, Rotation3, Vector3};
+use recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
 
 /// A dual-axis run: the recording (its table angle is the inner gimbal)
 /// and both gimbal angles at each IMU sample.
@@ -83,6 +83,7 @@ pub fn simulate_gimbals(
     let c_b_n = quat_to_dcm(&euler_to_quat(&Euler::<f64>::default()));
     let n = (duration_s * rate_hz).floor() as usize + 1;
     let mut rec = Recording {
+        gyro_only: false,
         moving: None,
         meta: Meta {
             description: Some(format!(

@@ -111,8 +111,11 @@ pub struct ImuSpec {
     pub accel: TriadSpec,
     /// Gyro g-sensitivity, each entry 1 sigma, rad/s per m/s^2.
     pub g_sensitivity: f64,
-    /// Latency of the IMU samples behind their time stamps, s.
+    /// Latency of the IMU samples behind their time stamps, s (the gyros',
+    /// and the accelerometers' unless `accel_latency_s` is set).
     pub latency_s: f64,
+    /// The accelerometers' own latency, s, when it differs from the gyros'.
+    pub accel_latency_s: Option<f64>,
     /// Sample-time jitter, 1 sigma, s.
     pub jitter_s: f64,
     /// Temperature behaviour.
@@ -153,6 +156,7 @@ impl ImuSpec {
             accel: TriadSpec::default(),
             g_sensitivity: 0.0,
             latency_s: 0.0,
+            accel_latency_s: None,
             jitter_s: 0.0,
             temp: TempSpec {
                 warmup_c: 0.0,
@@ -212,6 +216,7 @@ impl ImuSpec {
             },
             g_sensitivity: 0.1 * DEG / G0 / 3.0,
             latency_s: 0.0,
+            accel_latency_s: None,
             jitter_s: 0.0,
             temp: TempSpec::default(),
         }
@@ -264,6 +269,7 @@ impl ImuSpec {
             },
             g_sensitivity: 0.01 * DEG / G0,
             latency_s: 0.0,
+            accel_latency_s: None,
             jitter_s: 0.0,
             temp: TempSpec::default(),
         }
@@ -318,6 +324,7 @@ impl ImuSpec {
             },
             g_sensitivity: 0.05 * DEG / G0 / 3.0,
             latency_s: 0.0,
+            accel_latency_s: None,
             jitter_s: 0.0,
             temp: TempSpec::default(),
         }
@@ -375,6 +382,7 @@ impl ImuSpec {
             },
             g_sensitivity: 0.005 * DEG / G0,
             latency_s: 0.0,
+            accel_latency_s: None,
             jitter_s: 0.0,
             temp: TempSpec {
                 lsb_c: 1.0 / 132.48,

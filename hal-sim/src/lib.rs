@@ -11,14 +11,13 @@
 //! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]).
 //! - [`dual`]: dual-axis sequences on a tri-axial table.
 //! - [`drive`]: a vehicle under the table (city / highway drives, the ideal
-//!   sensor on a moving base, the GNSS receiver); [`moving`]: the
-//!   recording's moving-base keys and files (`gnss.csv`, `truth.csv`).
-//! - [`track`]: the table's motion from recorded encoder reads; [`twin`]: a
-//!   fitted sensor model and a recording's own run re-simulated with it.
+//!   sensor on a moving base, the GNSS receiver).
+//! - [`twin`]: a fitted sensor model and a recording's own run re-simulated
+//!   with it (the table's motion from the `recording` crate's encoder track).
 //! - [`icm42688`], [`mod@bench`], [`drivers`]: the ICM-42688-P register model,
 //!   the shared bench, embedded-hal 1.0 mock drivers with fault injection.
-//! - [`recording`]: the `rins-recording/1` reader and writer; [`rng`]: the
-//!   seeded generator.
+//! - [`rng`]: the seeded generator. The `rins-recording/1` format itself
+//!   (reader, writer, encoder track) is the `recording` crate.
 
 pub mod bench;
 pub mod catalogue;
@@ -27,10 +26,7 @@ pub mod drivers;
 pub mod dual;
 pub mod icm42688;
 pub mod imu;
-pub mod moving;
-pub mod recording;
 pub mod rng;
 pub mod sim;
-pub mod track;
 pub mod twin;
 pub mod world;

@@ -9,8 +9,6 @@
 use crate::catalogue::EffectId;
 use crate::drive::{Drive, DriveKind, GnssSpec, Receiver, Vehicle, VehicleState};
 use crate::imu::{ImuModel, ImuSpec};
-use crate::moving::{GnssMeta, GnssRow, MovingBase, TruthRow};
-use crate::recording::{ImuRow, Meta, Recording, TableRow};
 use crate::rng::Rng;
 use crate::world::{
     Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Servo, Site, Table,
@@ -19,6 +17,8 @@ use core_nav::attitude::Euler;
 use core_nav::scheme::{Limits, Profile, Scheme};
 use core_nav::table::Axis;
 use nalgebra::Vector3;
+use recording::moving::{GnssMeta, GnssRow, MovingBase, TruthRow};
+use recording::{ImuRow, Meta, Recording, TableRow};
 use std::collections::VecDeque;
 
 /// Everything a run is made of.
@@ -276,6 +276,12 @@ pub const EFFECTS: &[Effect] = &[
     },
     // Other terms of the error model.
     Effect {
+        name: "accel_time_offset",
+        unit: "s",
+        help: "accelerometer samples this late relative to their stamps, when it differs from time_offset (the gyros')",
+        apply: |c, v| c.imu.accel_latency_s = Some(v),
+    },
+    Effect {
         name: "gyro_bias",
         unit: "rad/s",
         help: "turn-on gyro bias 1 sigma",
@@ -493,7 +499,10 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     if !(cfg.duration_s > 0.0 && cfg.imu_rate_hz > 0.0 && cfg.encoder_rate_hz > 0.0) {
         return Err(SimError::NotPositive);
     }
-    if !(0.0..=1.0).contains(&cfg.imu.latency_s) || !(0.0..=1.0).contains(&cfg.encoder.latency_s) {
+    if !(0.0..=1.0).contains(&cfg.imu.latency_s)
+        || !(0.0..=1.0).contains(&cfg.imu.accel_latency_s.unwrap_or(0.0))
+        || !(0.0..=1.0).contains(&cfg.encoder.latency_s)
+    {
         return Err(SimError::Latency);
     }
     let profile = Profile::new(cfg.scheme, cfg.limits).map_err(SimError::Scheme)?;
@@ -546,8 +555,10 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let n_imu = (cfg.duration_s * cfg.imu_rate_hz).floor() as u64 + 1;
     let n_enc = (cfg.duration_s * cfg.encoder_rate_hz).floor() as u64 + 1;
     let mut rec = Recording {
+        gyro_only: false,
         moving: None,
         meta: Meta {
+            table_source: recording::TableSource::Encoder,
             description: Some(format!(
                 "rins simulate: imu {}, scheme {:?}, static {} s, seed {}{}",
                 cfg.imu.name,
@@ -564,7 +575,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             roll_deg,
             imu_model: Some(cfg.imu.model.to_string()),
             imu_rate_hz: cfg.imu_rate_hz,
-            imu_sample: crate::recording::SampleKind::Instantaneous,
+            imu_sample: recording::SampleKind::Instantaneous,
             axis: cfg.geometry.axis,
             encoder_rate_hz: cfg.encoder_rate_hz,
         },
@@ -632,14 +643,18 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             }
             let j = (jitter.normal() * cfg.imu.jitter_s).clamp(-MAX_JITTER_S, MAX_JITTER_S);
             let t_true = (t_k - cfg.imu.latency_s + j).max(0.0);
-            let (w, f) = match veh_at(&veh_hist, t_true) {
+            let truth_at = |tt: f64| match veh_at(&veh_hist, tt) {
                 Some(v) => {
                     let (w_b, f_b) = v.ideal_b();
-                    let f_b = f_b + crate::drive::vibration_b(t_true, v.speed_mps);
-                    scene.truth_on_vehicle(&kin_at(t_true), t_true, &w_b, &f_b)
+                    let f_b = f_b + crate::drive::vibration_b(tt, v.speed_mps);
+                    scene.truth_on_vehicle(&kin_at(tt), tt, &w_b, &f_b)
                 }
-                None => scene.truth(&kin_at(t_true), t_true),
+                None => scene.truth(&kin_at(tt), tt),
             };
+            let (w, mut f) = truth_at(t_true);
+            if let Some(l) = cfg.imu.accel_latency_s {
+                f = truth_at((t_k - l + j).max(0.0)).1;
+            }
             if let Some(v) = veh_at(&veh_hist, t_k) {
                 let d = origin.ned_to(&v.pos);
                 let [r, p, h] = v.euler_rad;

@@ -13,10 +13,10 @@
 //! channel.
 
 use crate::imu::{ImuModel, ImuSpec};
-use crate::recording::{ImuRow, Recording};
-use crate::track::EncoderTrack;
 use crate::world::{Geometry, Kinematics, Scene};
 use nalgebra::{Matrix3, Vector3};
+use recording::track::EncoderTrack;
+use recording::{ImuRow, Recording};
 use serde::{Deserialize, Serialize};
 
 /// The format tag of a sim model file.
@@ -118,9 +118,15 @@ pub struct SimModel {
     /// (a tilted axis or a base off level).
     #[serde(default, skip_serializing_if = "is_zero3")]
     pub tilt_rad: [f64; 3],
-    /// IMU samples this late relative to their stamps (and the encoder), s.
+    /// IMU samples this late relative to their stamps (and the encoder), s:
+    /// the gyros', and the accelerometers' unless `accel_time_offset_s`
+    /// says otherwise.
     #[serde(default)]
     pub time_offset_s: f64,
+    /// The accelerometers' own offset, s, when it differs from the gyros'
+    /// (a chip filters and reads its two triads with different delays).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_time_offset_s: Option<f64>,
     /// Encoder angle error `e(theta) = c cos(theta) + s sin(theta)`: `[c,
     /// s]`, rad (the encoder shows the true angle plus `e`).
     #[serde(default)]
@@ -143,6 +149,7 @@ impl Default for SimModel {
             lever_arm_m: [0.0; 3],
             tilt_rad: [0.0; 3],
             time_offset_s: 0.0,
+            accel_time_offset_s: None,
             encoder_error_rad: [0.0; 2],
             warmup: None,
         }
@@ -204,7 +211,8 @@ impl SimModel {
     }
 
     fn check(&self) -> Result<(), TwinError> {
-        let mut all: Vec<f64> = vec![self.earth_rate_scale, self.time_offset_s];
+        let accel_dt = self.accel_time_offset_s.unwrap_or(self.time_offset_s);
+        let mut all: Vec<f64> = vec![self.earth_rate_scale, self.time_offset_s, accel_dt];
         all.extend(self.lever_arm_m);
         all.extend(self.tilt_rad);
         all.extend(self.encoder_error_rad);
@@ -233,7 +241,7 @@ impl SimModel {
         if all.iter().any(|x| !x.is_finite()) {
             return Err(TwinError::Value("a value is NaN or infinite".into()));
         }
-        if !(0.0..=1.0).contains(&self.time_offset_s.abs()) {
+        if !(0.0..=1.0).contains(&self.time_offset_s.abs()) || accel_dt.abs() > 1.0 {
             return Err(TwinError::Value("time_offset_s beyond 1 s".into()));
         }
         Ok(())
@@ -273,6 +281,20 @@ fn set_triad(t: &mut crate::imu::TriadModel, terms: &TriadTerms, temp_bias: [f64
 /// # Errors
 /// A recording without IMU samples or with fewer than 3 encoder reads; a
 /// temperature term on a recording without temperatures; a model with a
+
+/// The table's true motion at `t` (s) from the encoder track: the encoder
+/// shows `theta + e(theta)` with `e = c cos(theta) + s sin(theta)` (rad).
+fn true_motion(track: &EncoderTrack, t: f64, c: f64, s: f64) -> Kinematics {
+    let shown = track.at(t);
+    let e = c * shown.theta.cos() + s * shown.theta.sin();
+    let de = -c * shown.theta.sin() + s * shown.theta.cos();
+    Kinematics {
+        theta: shown.theta - e,
+        rate: shown.rate / (1.0 + de),
+        accel: shown.accel,
+    }
+}
+
 /// warm-up on a recording with temperatures.
 pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Recording, TwinError> {
     model.check()?;
@@ -350,16 +372,16 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
     let mut t_prev = t0 - dt_nominal;
     for (r, (row, src)) in out.imu.iter_mut().zip(&rec.imu).enumerate() {
         let t_true = src.t_s - model.time_offset_s;
-        let shown = track.at(t_true);
-        // The encoder shows theta + e(theta): the true angle and rate.
-        let e = ec * shown.theta.cos() + es * shown.theta.sin();
-        let de = -ec * shown.theta.sin() + es * shown.theta.cos();
-        let kin = Kinematics {
-            theta: shown.theta - e,
-            rate: shown.rate / (1.0 + de),
-            accel: shown.accel,
-        };
-        let (w, f) = scene.truth(&kin, t_true);
+        let kin = true_motion(&track, t_true, ec, es);
+        let (w, mut f) = scene.truth(&kin, t_true);
+        if let Some(dt_a) = model.accel_time_offset_s {
+            f = scene
+                .truth(
+                    &true_motion(&track, t0.max(src.t_s - dt_a), ec, es),
+                    src.t_s - dt_a,
+                )
+                .1;
+        }
         let temp = match &temps {
             Some(t) => t.get(r).copied().unwrap_or(temp0),
             None => imu.temperature_c(src.t_s - t0),
@@ -370,7 +392,11 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
         *row = ImuRow {
             t_s: src.t_s,
             gyro_radps: [g.x, g.y, g.z],
-            accel_mps2: [a.x, a.y, a.z],
+            accel_mps2: if rec.gyro_only {
+                [f64::NAN; 3]
+            } else {
+                [a.x, a.y, a.z]
+            },
             temp_c: src.temp_c,
         };
     }

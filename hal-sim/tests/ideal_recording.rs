@@ -7,10 +7,10 @@
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::{simulate, SimConfig};
 use hal_sim::world::Site;
 use nalgebra::{Rotation3, Vector3};
+use recording::Recording;
 
 const OMEGA_E: f64 = 7.292_115e-5;
 

@@ -9,10 +9,10 @@ use embedded_hal::pwm::SetDutyCycle;
 use hal_sim::bench::{Bench, BenchConfig};
 use hal_sim::drivers::{SimDir, SimEncoder, SimPwm};
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::{simulate, SimConfig};
 use hal_sim::world::Bump;
 use nalgebra::Vector3;
+use recording::Recording;
 
 fn tmp(name: &str) -> std::path::PathBuf {
     std::env::temp_dir().join(format!("rins-{name}-{}", std::process::id()))

@@ -3,12 +3,12 @@
 
 use crate::plot::{Chart, Figure, Series};
 use core_nav::allan::{fit_noise, oadev, octave_factors, AdevPoint, NoiseFit};
-use hal_sim::recording::Recording;
+use recording::Recording;
 use serde_json::{json, Map, Value};
 
 /// The channel names, in the recording's column order (recording-v1).
 pub const CHANNELS: [&str; 6] = {
-    let c = hal_sim::recording::IMU_COLS;
+    let c = recording::IMU_COLS;
     [c[1], c[2], c[3], c[4], c[5], c[6]]
 };
 

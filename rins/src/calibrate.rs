@@ -7,8 +7,8 @@ use core_nav::calib::{
     solve, CalibError, Checks, EarthModel, GyroCalibration, Phase, PhaseAccumulator, Unknowns,
 };
 use core_nav::table::{is_still, EncoderInterpolator, TableAngle};
-use hal_sim::recording::{axis_name, parse_axis, Recording};
 use nalgebra::Vector3;
+use recording::{axis_name, parse_axis, Recording};
 use serde_json::{json, Value};
 
 /// A stretch of the run at one table rate.

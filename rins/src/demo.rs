@@ -12,8 +12,8 @@ use core_nav::calib::{Checks, GyroCalibration, PhaseAccumulator};
 use core_nav::scheme::Scheme;
 use core_nav::table::{Axis, TableAngle};
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::{simulate, SimConfig};
+use recording::Recording;
 use std::path::Path;
 
 /// Still phase of the power-up calibration, s.

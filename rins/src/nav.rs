@@ -9,8 +9,8 @@ use core_nav::earth::GeoPoint;
 use core_nav::real::{wrap_pi, Real};
 use core_nav::strapdown::{ImuSample, Strapdown, StrapdownConfig, VerticalChannel};
 use core_nav::table::{q_b_n, q_s_b, EncoderInterpolator, TableAngle};
-use hal_sim::recording::{Meta, Recording, SampleKind};
 use nalgebra::{Quaternion, Vector3};
+use recording::{Meta, Recording, SampleKind};
 
 /// How to navigate.
 #[derive(Clone, Debug, Default)]

@@ -16,7 +16,7 @@ use firmware::app::{App, Mode};
 use firmware::replay::{
     encode, encode_outcome, outcome, step, Event, Header, Outcome, HEADER, RECORD_MAX,
 };
-use hal_sim::recording::Recording;
+use recording::Recording;
 
 /// The stream and what the host's run of it came to.
 pub struct Replay {

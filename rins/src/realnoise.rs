@@ -11,7 +11,7 @@
 //! and a few seconds) are too short for a whole run and are not used.
 
 use anyhow::{bail, Context, Result};
-use hal_sim::recording::Recording;
+use recording::Recording;
 use std::path::Path;
 
 /// Standard gravity, m/s^2 (the ADIS16405 recording is in g).
@@ -159,10 +159,11 @@ impl RealNoise {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use hal_sim::recording::{ImuRow, Meta};
+    use recording::{ImuRow, Meta};
 
     fn run(n: usize) -> Recording {
         Recording {
+            gyro_only: false,
             moving: None,
             meta: Meta::default(),
             imu: (0..n)

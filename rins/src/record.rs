@@ -9,7 +9,7 @@
 
 use core_nav::table::EncoderScale;
 use firmware::telemetry::{Decoder, LinkStats, Telemetry, MAX_PAYLOAD};
-use hal_sim::recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
+use recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
 
 /// What came over the link besides the samples.
 #[derive(Clone, Debug, Default)]
@@ -52,6 +52,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
     let mut out = [0u8; MAX_PAYLOAD + 2];
     let mut r = Decoded {
         recording: Recording {
+            gyro_only: false,
             moving: None,
             meta: Meta {
                 imu_sample: SampleKind::Average,
@@ -161,7 +162,7 @@ pub fn calibration_json(d: &Decoded, axis: core_nav::table::Axis) -> Option<serd
     let mut out = serde_json::json!({
         "format": "rins-calibration/1",
         "method": "board",
-        "axis": hal_sim::recording::axis_name(axis),
+        "axis": recording::axis_name(axis),
         "board": {
             "frames": d.calibrations.iter().map(frame).collect::<Vec<_>>(),
             "stored_at_power_up": stored.map(frame),

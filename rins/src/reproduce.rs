@@ -17,8 +17,8 @@ use core_nav::calib::GyroCalibration;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::{simulate, SimConfig};
+use recording::Recording;
 use serde::Serialize;
 
 /// The paper's mean RMS over all rates: (imu, mode, horizontal position m,

@@ -29,9 +29,9 @@ use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::SimError;
 use hal_sim::sim::{simulate, SimConfig};
+use recording::Recording;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -259,6 +259,9 @@ pub struct Cell {
     /// Runs where it was named, or a finding said it cannot be told apart
     /// from it in this run (a look-alike).
     pub named_or_lookalike: usize,
+    /// The magnitude is beyond what any sensor, table or site can have
+    /// (the catalogue's bound): not simulated, no runs.
+    pub beyond_bound: bool,
 }
 
 /// Minimum detectable effect of one effect in one grade's run.
@@ -422,15 +425,17 @@ pub fn run(
                 } else {
                     base * s
                 };
+                let beyond_bound = e.bound().is_some_and(|b| magnitude > b.max_abs);
                 cells.push(Cell {
                     grade: g.name.clone(),
                     effect: e.as_str().into(),
                     scale: *s,
                     magnitude,
-                    runs,
+                    runs: if beyond_bound { 0 } else { runs },
                     detected: 0,
                     first: 0,
                     named_or_lookalike: 0,
+                    beyond_bound,
                 });
                 meta.push((
                     gi,
@@ -446,8 +451,8 @@ pub fn run(
         }
     }
     let mut jobs = vec![];
-    for ci in 0..cells.len() {
-        for k in 0..runs {
+    for (ci, cell) in cells.iter().enumerate() {
+        for k in 0..cell.runs {
             jobs.push(Job::Cell {
                 cell: ci,
                 seed: seed + 1000 * k as u64 + 17,
@@ -588,7 +593,9 @@ pub fn markdown(s: &Study) -> String {
             out += &format!("| {e} | {mde} |");
             for c in s.cells.iter().filter(|c| c.grade == g && c.effect == e) {
                 let pct = |n: usize| 100.0 * n as f64 / c.runs.max(1) as f64;
-                if c.named_or_lookalike > c.detected {
+                if c.beyond_bound {
+                    out += " beyond bound |";
+                } else if c.named_or_lookalike > c.detected {
                     out += &format!(
                         " {:.0} % ({:.0} %) |",
                         pct(c.detected),

@@ -47,7 +47,7 @@ fn simulate_with_every_named_flag_writes_a_recording() {
         "{}",
         String::from_utf8_lossy(&st.stderr)
     );
-    let rec = hal_sim::recording::Recording::read(&out).unwrap();
+    let rec = recording::Recording::read(&out).unwrap();
     assert_eq!(rec.imu.len(), 1201);
     assert_eq!(rec.meta.latitude_deg, 45.5);
     assert_eq!(rec.meta.heading_deg, 30.0);

@@ -8,8 +8,8 @@
 
 use hal_sim::drive::DriveKind;
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
 use hal_sim::sim::simulate;
+use recording::Recording;
 use rins::aided::{self, AidedOptions};
 use rins::outages;
 

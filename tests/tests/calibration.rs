@@ -34,7 +34,7 @@ fn truth(seed: u64) -> (Vector3<f64>, Vector3<f64>) {
     (g.bias, mk)
 }
 
-fn run(seed: u64, scheme: Scheme, static_s: f64) -> hal_sim::recording::Recording {
+fn run(seed: u64, scheme: Scheme, static_s: f64) -> recording::Recording {
     let mut c = SimConfig::new(spec(), Axis::Z, 120.0);
     c.ideal = true;
     c.scheme = scheme;
@@ -189,19 +189,15 @@ fn multi_rate_calibration_removes_the_rate_squared_error() {
         let off = 80.0 * k as f64;
         let last_angle = rec.table.last().unwrap().angle_rad;
         rec.imu
-            .extend(r.imu.iter().skip(1).map(|x| hal_sim::recording::ImuRow {
+            .extend(r.imu.iter().skip(1).map(|x| recording::ImuRow {
                 t_s: x.t_s + off,
                 ..*x
             }));
-        rec.table.extend(
-            r.table
-                .iter()
-                .skip(1)
-                .map(|x| hal_sim::recording::TableRow {
-                    t_s: x.t_s + off,
-                    angle_rad: x.angle_rad + last_angle,
-                }),
-        );
+        rec.table
+            .extend(r.table.iter().skip(1).map(|x| recording::TableRow {
+                t_s: x.t_s + off,
+                angle_rad: x.angle_rad + last_angle,
+            }));
     }
     let single = calibrate(&rec, (0.0, 160.0), Method::Earth, None)
         .unwrap()

@@ -417,7 +417,7 @@ fn malformed_commands_are_answered_with_a_reason() {
 fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
     let mut b = navigating_board(21);
     b.run(5.0);
-    let meta = hal_sim::recording::Meta::default();
+    let meta = recording::Meta::default();
     let d = rins::record::decode(b.frames.iter().copied(), meta.clone());
     println!("{}", rins::record::link_report(&d));
     assert_eq!(
@@ -437,18 +437,12 @@ fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
         assert_eq!(row.accel_mps2, s.accel_mps2.map(f64::from));
     }
     assert_eq!(d.recording.table.len(), b.encoder_reads.len());
-    assert_eq!(
-        d.recording.meta.imu_sample,
-        hal_sim::recording::SampleKind::Average
-    );
+    assert_eq!(d.recording.meta.imu_sample, recording::SampleKind::Average);
     assert_eq!(d.calibrations.len(), 1);
     // Through the file format and back.
     let dir = std::env::temp_dir().join(format!("rins-record-{}", std::process::id()));
     d.recording.write(&dir).unwrap();
-    assert_eq!(
-        hal_sim::recording::Recording::read(&dir).unwrap(),
-        d.recording
-    );
+    assert_eq!(recording::Recording::read(&dir).unwrap(), d.recording);
     std::fs::remove_dir_all(&dir).unwrap();
     // A damaged link: 5 bytes flipped, 2,000 bytes gone (about 50 frames).
     let mut bytes = b.frames.clone();
@@ -489,10 +483,7 @@ fn the_stored_record_is_read_at_power_up_and_the_change_reported() {
     // What the host decodes from the link: the stored record first, then
     // the accepted result and its change; calibration.json carries all three
     // and reads back as a calibration.
-    let d = rins::record::decode(
-        b.frames.iter().copied(),
-        hal_sim::recording::Meta::default(),
-    );
+    let d = rins::record::decode(b.frames.iter().copied(), recording::Meta::default());
     assert_eq!(
         d.calibrations.first().map(|c| c.status),
         Some(CAL_STATUS_STORED)
@@ -538,7 +529,7 @@ fn a_wrong_imu_at_power_up_is_reported_and_the_motor_never_runs() {
     // Sent over the link.
     let mut frames = vec![];
     app.drain(|f| frames.extend_from_slice(f));
-    let d = rins::record::decode(frames, hal_sim::recording::Meta::default());
+    let d = rins::record::decode(frames, recording::Meta::default());
     assert_eq!(d.faults, vec![(0, Fault::WrongDevice as u8, 1)]);
     // Encoder reads and commands to start do not run the motor: no IMU.
     app.on_encoder(20_000, 0);

@@ -159,8 +159,8 @@ fn cross_axis_g_sensitivity_on_a_horizontal_axis_is_g_sensitivity() {
 /// IMU samples and floored to 16,384 counts. Earth rate and gravity in NED
 /// written out here: `w_s = Rz(theta)^T Omega (cos lat, 0, -sin lat) +
 /// theta_dot z`, `f_s = Rz(theta)^T (0, 0, -g)`.
-fn reversals(duration_s: f64) -> hal_sim::recording::Recording {
-    use hal_sim::recording::{ImuRow, Meta, Recording, TableRow};
+fn reversals(duration_s: f64) -> recording::Recording {
+    use recording::{ImuRow, Meta, Recording, TableRow};
     let (w, a) = (90f64.to_radians(), 400f64.to_radians());
     let ramp = 2.0 * w / a; // 0.45 s
     let half = 2.0; // s per direction, ramp included
@@ -202,6 +202,7 @@ fn reversals(duration_s: f64) -> hal_sim::recording::Recording {
     let omega = 7.292_115e-5;
     let g = 9.7936;
     let mut rec = Recording {
+        gyro_only: false,
         moving: None,
         meta: Meta {
             description: Some("independent closed-form reversals".into()),
@@ -281,7 +282,7 @@ fn sharp_reversals_from_an_independent_generator_name_nothing() {
     // count over a 20 ms read spacing, ~q / (h sqrt(8)) ~ 7 mrad/s, with
     // the knots' margin).
     let clean = reversals(600.0);
-    let tr = hal_sim::track::EncoderTrack::of(&clean);
+    let tr = recording::track::EncoderTrack::of(&clean);
     let w_up = 7.292_115e-5 * 30.53f64.to_radians().sin();
     let rate = |k: usize| clean.imu[k].gyro_radps[2] + w_up;
     let (mut angle, mut worst_angle, mut worst_rate) = (0.0f64, 0.0f64, 0.0f64);

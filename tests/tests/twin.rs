@@ -52,10 +52,10 @@ struct Case {
     named: bool,
 }
 
-fn hide(g: &Grade, id: EffectId, seed: u64) -> Case {
+fn hide(g: &Grade, id: EffectId, mag: f64, seed: u64) -> Case {
     let (axis, _) = scenario(id);
     let mut c = background(g, axis, id == EffectId::BiasInstability, seed);
-    inject(&mut c, &g.spec, id, magnitude(g, id)).unwrap();
+    inject(&mut c, &g.spec, id, mag).unwrap();
     let rec = record(g, &c, seed).unwrap();
     let opts = Options::default();
     let d = run(&rec, "hidden", &opts).unwrap();
@@ -103,7 +103,20 @@ fn hide(g: &Grade, id: EffectId, seed: u64) -> Case {
 fn check_all(g: &Grade) {
     let mut bad = vec![];
     for (k, id) in EffectId::ALL.into_iter().enumerate() {
-        let c = hide(g, id, 11 + 7 * k as u64);
+        // An effect this run can only show beyond its physical bound (the
+        // earth rate on a gyro whose noise hides the real one) is not hidden.
+        let mag = magnitude(g, id);
+        if let Some(b) = id.bound().filter(|b| mag > b.max_abs) {
+            eprintln!(
+                "{} {:<28} skipped: {mag:.2e} is beyond its bound {:.2e} {}",
+                g.name,
+                id.as_str(),
+                b.max_abs,
+                b.unit
+            );
+            continue;
+        }
+        let c = hide(g, id, mag, 11 + 7 * k as u64);
         eprintln!(
             "{} {:<28} named {:<5} twin ratio {:.2} (nominal twin {:.2})",
             g.name,

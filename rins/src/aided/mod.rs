@@ -8,7 +8,7 @@
 //! simulated runs, the NEES against `truth.csv`.
 //!
 //! The table angle and rate come from the encoder (hal-sim's
-//! [`hal_sim::track::EncoderTrack`]).
+//! [`recording::track::EncoderTrack`]).
 
 use anyhow::{bail, Result};
 use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
@@ -18,9 +18,9 @@ use core_nav::real::Real;
 use core_nav::strapdown::ImuSample;
 use core_nav::table::{Axis, TableAngle};
 use hal_sim::imu::ImuSpec;
-use hal_sim::recording::Recording;
-use hal_sim::track::EncoderTrack;
 use nalgebra::{Quaternion, Vector3};
+use recording::track::EncoderTrack;
+use recording::Recording;
 
 use crate::nav::TrajRow;
 

@@ -2,7 +2,7 @@
 //! the end of each outage), NIS and NEES against their 95 % bounds.
 
 use super::AidedRun;
-use hal_sim::recording::Recording;
+use recording::Recording;
 
 /// What a run shows against the truth and its own statistics.
 #[derive(Clone, Debug, Default, serde::Serialize)]

@@ -31,6 +31,8 @@ pub struct Args {
 /// Runs `rins calibrate`.
 pub fn run(a: &Args) -> Result<()> {
     let rec = read_recording(&a.rec)?;
+    rec.require_accel("rins calibrate")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let r = calibrate::calibrate(
         &rec,
         (a.from_s, a.to_s),

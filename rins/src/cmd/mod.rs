@@ -15,7 +15,7 @@ pub mod study;
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::ValueEnum;
-use hal_sim::recording::Recording;
+use recording::Recording;
 use std::path::Path;
 
 /// Table axis.

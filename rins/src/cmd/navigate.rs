@@ -60,6 +60,8 @@ fn load_calibration(p: &Path) -> Result<GyroCalibration> {
 /// Runs `rins navigate`.
 pub fn run(a: &Args) -> Result<()> {
     let rec = read_recording(&a.rec)?;
+    rec.require_accel("rins navigate")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     if a.gnss {
         return run_aided(a, &rec);
     }
@@ -118,7 +120,7 @@ pub fn run(a: &Args) -> Result<()> {
 }
 
 /// `rins navigate --gnss`.
-fn run_aided(a: &Args, rec: &hal_sim::recording::Recording) -> Result<()> {
+fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let profile = rins::aided::profile(rec, a.imu_profile.as_deref())?;
     let opt = rins::aided::AidedOptions {
         profile,

@@ -19,6 +19,8 @@ pub struct Args {
 /// Runs `rins qemu-replay`.
 pub fn run(a: &Args) -> Result<()> {
     let rec = read_recording(&a.rec)?;
+    rec.require_accel("rins qemu-replay")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let r = rins::qemu_replay::build(&rec, a.counts_per_rev)?;
     write_file(&a.out, "")?;
     std::fs::write(&a.out, &r.bytes).with_context(|| format!("writing {}", a.out.display()))?;

@@ -40,7 +40,7 @@ pub struct Args {
 
 /// Runs `rins record`.
 pub fn run(a: &Args) -> Result<()> {
-    let meta = hal_sim::recording::Meta {
+    let meta = recording::Meta {
         description: Some("rins record: board telemetry".into()),
         latitude_deg: a.site.lat_deg,
         height_m: a.site.height_m,
@@ -48,7 +48,7 @@ pub fn run(a: &Args) -> Result<()> {
         pitch_deg: a.site.pitch_deg,
         roll_deg: a.site.roll_deg,
         imu_model: Some("TDK ICM-42688-P (board)".into()),
-        ..hal_sim::recording::Meta::default()
+        ..recording::Meta::default()
     };
     let bytes: Vec<u8> = if let Some(f) = &a.from_file {
         std::fs::read(f).with_context(|| format!("reading {}", f.display()))?

@@ -4,7 +4,7 @@
 
 use super::effects::Candidate;
 use super::noise::{self, Gains, Noise};
-use super::{blocks, encoder_quantum, Options, Prediction, NOMINAL_PRIOR};
+use super::{encoder_quantum, Options, Prediction, NOMINAL_PRIOR};
 use nalgebra::{DMatrix, DVector};
 
 /// Who a design column belongs to.
@@ -28,6 +28,21 @@ pub(super) struct ChannelDesign {
     pub(super) zp: DMatrix<f64>,
 }
 
+impl ChannelDesign {
+    /// A channel the recording does not have (gyro-only: the
+    /// accelerometers): no columns, no rows, nothing to fit.
+    fn not_recorded(nb: usize, folds: usize, block_s: f64) -> Self {
+        Self {
+            owners: vec![],
+            gram_w: vec![DMatrix::zeros(1, 1); folds],
+            gram_p: vec![DMatrix::zeros(1, 1); folds],
+            rows: vec![0; folds],
+            noise: Noise::none(block_s),
+            zp: DMatrix::zeros(nb, 1),
+        }
+    }
+}
+
 /// Everything a fit needs.
 pub(super) struct Design {
     pub(super) ch: Vec<ChannelDesign>,
@@ -36,6 +51,9 @@ pub(super) struct Design {
     pub(super) cands: Vec<Candidate>,
     pub(super) names: Vec<Vec<String>>,
     pub(super) folds: usize,
+    /// Candidate parameters this run cannot see at any physically possible
+    /// size ([`unseen`]): never fitted.
+    pub(super) unseen: Vec<Key>,
 }
 
 /// A solved model.
@@ -84,22 +102,22 @@ impl Design {
         noise: Option<&[Noise; 6]>,
     ) -> Self {
         let n = p.t_s.len();
-        let dt = if n > 1 {
-            (p.t_s[n - 1] - p.t_s[0]) / (n - 1) as f64
-        } else {
-            0.01
-        };
+        let dt = p.dt_s;
         let len = ((opts.block_s / dt).round() as usize).max(1);
         let block_s = len as f64 * dt;
+        let bl = p.blocks(len);
+        let blocks = |v: &[f64]| bl.mean(v);
         let names = cands.iter().map(|c| c.params(p)).collect();
         // The truth's block means. Gyros: the earth rate's by the trapezoid,
         // the table's from the encoder angles at the block's edges (the
         // angle domain: encoder quantisation and the knots of the rate
         // profile are not differentiated into the rate).
-        let nb = n.saturating_sub(1) / len;
-        let table_mean: Vec<f64> = (0..nb)
-            .map(|b| {
-                let (ta, tb) = (p.t_s[b * len], p.t_s[(b + 1) * len]);
+        let nb = bl.count();
+        let table_mean: Vec<f64> = bl
+            .starts
+            .iter()
+            .map(|a| {
+                let (ta, tb) = (p.t_s[*a], p.t_s[a + len]);
                 let sh = p.time_offset_s;
                 (p.angle_at(tb - sh) - p.angle_at(ta - sh)) / (tb - ta)
             })
@@ -107,13 +125,13 @@ impl Design {
         let truth_b: Vec<Vec<f64>> = (0..6)
             .map(|ch| {
                 if ch < 3 {
-                    let e = blocks(&p.w_earth.iter().map(|v| v[ch]).collect::<Vec<_>>(), len);
+                    let e = blocks(&p.w_earth.iter().map(|v| v[ch]).collect::<Vec<_>>());
                     e.iter()
                         .zip(&table_mean)
                         .map(|(e, t)| e + p.k[ch] * t)
                         .collect()
                 } else {
-                    blocks(&p.f.iter().map(|v| v[ch - 3]).collect::<Vec<_>>(), len)
+                    blocks(&p.f.iter().map(|v| v[ch - 3]).collect::<Vec<_>>())
                 }
             })
             .collect();
@@ -131,6 +149,9 @@ impl Design {
         // Columns per channel, block means.
         let mut cols: Vec<Vec<(Owner, Vec<f64>)>> = (0..6).map(|_| vec![]).collect();
         for (ch, v) in cols.iter_mut().enumerate() {
+            if !p.recorded(ch) {
+                continue;
+            }
             v.push((Owner::Nominal(0), vec![1.0; nb]));
             for j in 1..4 {
                 let src = if ch < 3 { j - 1 } else { j + 2 };
@@ -138,18 +159,22 @@ impl Design {
             }
         }
         for (ci, c) in cands.iter().enumerate() {
-            for t in c.terms(p) {
+            for t in c.terms(p).into_iter().filter(|t| p.recorded(t.ch)) {
                 cols[t.ch].push((
                     Owner::Effect {
                         cand: ci,
                         param: t.param,
                     },
-                    blocks(&t.col, len),
+                    blocks(&t.col),
                 ));
             }
         }
+        let folds = opts.folds.max(2);
         let make = |ch: usize, cc: &Vec<(Owner, Vec<f64>)>| -> ChannelDesign {
-            let y: Vec<f64> = blocks(&(0..n).map(|r| p.meas(ch, r)).collect::<Vec<_>>(), len)
+            if !p.recorded(ch) {
+                return ChannelDesign::not_recorded(nb, folds, block_s);
+            }
+            let y: Vec<f64> = blocks(&(0..n).map(|r| p.meas(ch, r)).collect::<Vec<_>>())
                 .iter()
                 .zip(&truth_b[ch])
                 .map(|(m, t)| m - t)
@@ -185,7 +210,6 @@ impl Design {
                     zp[(r, c)] = col[r];
                 }
             }
-            let folds = opts.folds.max(2);
             let mut gram_w = vec![];
             let mut gram_p = vec![];
             let mut rows = vec![];
@@ -220,12 +244,14 @@ impl Design {
                 .map(|(ch, h)| h.join().unwrap_or_else(|_| make(ch, &cols[ch])))
                 .collect()
         });
+        let unseen = unseen(&chans, &cands);
         Self {
             ch: chans,
             cands,
             names,
             folds: opts.folds.max(2),
             quant,
+            unseen,
         }
     }
 
@@ -251,6 +277,11 @@ impl Design {
             }
         }
         let mut active: Vec<bool> = vec![true; index.len()];
+        for (k, i) in &index {
+            if self.unseen.contains(k) {
+                active[*i] = false;
+            }
+        }
         loop {
             let ((mut a0, b0), _) = self.normal(&index, &active, None);
             add_prior(&mut a0, &index, &active);
@@ -452,6 +483,38 @@ impl Design {
             None => self.ch[ch].rows.iter().sum(),
         }
     }
+}
+
+/// The candidate parameters that the run cannot see at any physically
+/// possible size: the largest possible signal (the catalogue's bound times
+/// the regressor, whitened: in units of the noise) carries less energy than
+/// the BIC charges for one parameter (`ln n`), so it could never be a
+/// finding. The test is relative to the noise and to the parameter's own
+/// scale, never a fixed epsilon: a regressor that is the floating-point
+/// residue of cos(180 deg) falls here, whatever its normalised shape.
+fn unseen(chans: &[ChannelDesign], cands: &[Candidate]) -> Vec<Key> {
+    let rows: usize = chans.iter().map(|c| c.rows.iter().sum::<usize>()).sum();
+    let ln_n = (rows.max(2) as f64).ln();
+    let mut energy: Vec<(Key, f64)> = vec![];
+    for (ch, cd) in chans.iter().enumerate() {
+        let g = gram_sum(&cd.gram_w, None);
+        for (c, o) in cd.owners.iter().enumerate() {
+            if let Owner::Effect { cand, .. } = o {
+                let b = cands.get(*cand).map_or(0.0, |x| x.bound().max_abs);
+                let e = g[(c, c)].max(0.0) * b * b;
+                let k = key_of(ch, *o);
+                match energy.iter_mut().find(|(x, _)| *x == k) {
+                    Some((_, v)) => *v += e,
+                    None => energy.push((k, e)),
+                }
+            }
+        }
+    }
+    energy
+        .into_iter()
+        .filter(|(_, e)| *e < ln_n)
+        .map(|(k, _)| k)
+        .collect()
 }
 
 /// Adds the nominal prior's precision (scale and misalignment) to `a`.

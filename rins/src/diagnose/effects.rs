@@ -7,7 +7,7 @@
 //! table axis (the same in both); `R(theta)` takes `s` to `b`.
 
 use super::Prediction;
-use hal_sim::catalogue::EffectId;
+use hal_sim::catalogue::{bound, Bound, EffectId};
 use nalgebra::{Rotation3, Unit, Vector3};
 
 /// Which physics a candidate is.
@@ -119,12 +119,33 @@ impl Candidate {
                 .iter()
                 .map(|(_, a)| format!("tilt_about_{a}_rad"))
                 .collect(),
-            Kind::TimeOffset => vec!["time_offset_s".into()],
+            // Per triad: the gyros' offset (the IMU-wide one when the two
+            // agree) and the accelerometers'.
+            Kind::TimeOffset => vec!["time_offset_s".into(), "accel_time_offset_s".into()],
             Kind::TempGyro => per_axis(&|a| format!("temp_bias_{a}_radps_per_degc")),
             Kind::TempAccel => per_axis(&|a| format!("temp_bias_{a}_mps2_per_degc")),
             Kind::Warmup(_) => per_axis(&|a| format!("warmup_bias_{a}_radps")),
             Kind::Encoder => vec!["encoder_cos_rad".into(), "encoder_sin_rad".into()],
             Kind::AccelK2 => per_axis(&|a| format!("k2_{a}_per_mps2")),
+        }
+    }
+
+    /// The physically possible size of each of its parameters (the
+    /// catalogue's [`bound`]): a fit beyond it is not this physics.
+    pub fn bound(&self) -> Bound {
+        match self.kind {
+            Kind::EarthRate => bound::EARTH_RATE,
+            Kind::GSens => bound::GYRO_G_SENSITIVITY,
+            Kind::GyroK2 => bound::GYRO_K2,
+            Kind::GyroAsym => bound::GYRO_ASYMMETRY,
+            Kind::Lever => bound::LEVER_ARM,
+            Kind::Tilt => bound::AXIS_TILT,
+            Kind::TimeOffset => bound::TIME_OFFSET,
+            Kind::TempGyro => bound::TEMP_GYRO,
+            Kind::TempAccel => bound::TEMP_ACCEL,
+            Kind::Warmup(_) => bound::WARMUP_GYRO,
+            Kind::Encoder => bound::ENCODER,
+            Kind::AccelK2 => bound::ACCEL_K2,
         }
     }
 
@@ -241,12 +262,19 @@ impl Candidate {
             }
             Kind::TimeOffset => {
                 // y(t) = x(t - dt): the residual is -dt dx/dt (first order;
-                // refined by re-predicting with the fitted offset).
+                // the gyros' refined by re-predicting with the fitted
+                // offset). The accelerometers have their own: a chip's two
+                // triads are filtered and read with different delays.
                 for i in 0..3 {
                     out.push(Term {
                         ch: i,
                         param: 0,
                         col: col(&|r| -deriv(&p.w, &p.t_s, r, i)),
+                    });
+                    out.push(Term {
+                        ch: 3 + i,
+                        param: 1,
+                        col: col(&|r| -deriv(&p.f, &p.t_s, r, i)),
                     });
                 }
             }
@@ -324,7 +352,7 @@ impl Candidate {
             Kind::GyroAsym => "table-axis gyro: flips with the direction of rotation, in proportion to the rate",
             Kind::Lever => "accelerometers: with the square of the table rate (centripetal) and its acceleration (tangential)",
             Kind::Tilt => "1x table revolution harmonic on the accelerometers normal to the table axis",
-            Kind::TimeOffset => "gyros, only where the table rate changes (ramps, reversals)",
+            Kind::TimeOffset => "gyros where the table rate changes (ramps, reversals); accelerometers where gravity turns through them",
             Kind::TempGyro | Kind::TempAccel => "slow, following the recorded temperature",
             Kind::Warmup(_) => "slow, an exponential settling after turn-on (no temperature recorded)",
             Kind::Encoder => "1x table revolution harmonic on the table-axis gyro, in proportion to the rate",
@@ -402,6 +430,41 @@ pub fn separate(a: EffectId, b: EffectId) -> String {
 /// The library for a prediction: every id's candidates (a warm-up grid
 /// stands for `temperature_bias` when no temperature was recorded).
 pub fn library(p: &Prediction) -> Vec<Candidate> {
+    let out = ruled_out(p);
+    library_all(p)
+        .into_iter()
+        .filter(|c| !out.iter().any(|(id, _)| *id == c.id) || c.kind == Kind::Tilt)
+        .filter(|c| p.accel_recorded || c.kind != Kind::TempAccel)
+        .collect()
+}
+
+/// The effect ids the recording itself rules out, with the reason: a
+/// gyro-only recording has no accelerometer terms (the axis tilt keeps its
+/// gyro part, the earth rate tilted), a commanded table angle (or no table)
+/// measures nothing the encoder errors or the IMU-to-encoder offsets could
+/// show in.
+pub fn ruled_out(p: &Prediction) -> Vec<(EffectId, String)> {
+    let mut v = vec![];
+    if !p.accel_recorded {
+        let why = "the recording has no accelerometer columns (gyro-only)";
+        for id in [EffectId::LeverArm, EffectId::AccelScaleNonlinearity] {
+            v.push((id, why.to_string()));
+        }
+        v.push((
+            EffectId::AxisTilt,
+            format!("{why}: only its gyro part (the earth rate tilted) is fitted"),
+        ));
+    }
+    if !p.angle_measured {
+        let why = "the table angle is not measured (a commanded angle, or no table): nothing shows an encoder error or an offset between the IMU and the encoder";
+        for id in [EffectId::EncoderError, EffectId::TimeOffset] {
+            v.push((id, why.to_string()));
+        }
+    }
+    v
+}
+
+fn library_all(p: &Prediction) -> Vec<Candidate> {
     let c = |id, kind| Candidate { id, kind };
     let mut v = vec![
         c(EffectId::EarthRate, Kind::EarthRate),

@@ -7,7 +7,7 @@ use super::locate;
 use super::noise::Noise;
 use super::CHANNELS;
 use hal_sim::catalogue::EffectId;
-use hal_sim::recording::Recording;
+use recording::Recording;
 use serde_json::{json, Map, Value};
 
 /// A fitted parameter: SI name (its unit in the suffix), value, 1-sigma
@@ -21,6 +21,10 @@ pub struct Parameter {
     pub value: f64,
     /// 1-sigma, same unit.
     pub sigma: Option<f64>,
+    /// The largest physically possible magnitude, same unit (the
+    /// catalogue's bound: a finding never exceeds it); `None` for noise
+    /// terms and parameters fixed on a grid.
+    pub max_abs: Option<f64>,
 }
 
 /// How much a finding improves the fit: per-channel residual rms (channel
@@ -147,6 +151,15 @@ pub struct Details {
     pub noise: Vec<Noise>,
     /// Effects not excited by this run, with the experiment that would.
     pub not_observable: Vec<(EffectId, String)>,
+    /// Effects the recording's columns or table source rule out, and why.
+    pub ruled_out: Vec<(EffectId, String)>,
+    /// The recording's segments between gaps: first and last sample time
+    /// (s) and samples.
+    pub segments: Vec<(f64, f64, usize)>,
+    /// The nominal IMU rate, Hz (`[imu] rate_hz`).
+    pub rate_hz: f64,
+    /// The accelerometers were recorded (else gyro-only).
+    pub accel_recorded: bool,
     /// Locate: the nominal residual split by motion and time.
     pub locate: locate::Locate,
     /// Block length, s.
@@ -216,7 +229,9 @@ impl Diagnosis {
             for i in 0..3 {
                 if let (Some(w), Some(f)) = (m[i].get(r), m[3 + i].get(r)) {
                     row.gyro_radps[i] = *w;
-                    row.accel_mps2[i] = *f;
+                    if !rec.gyro_only {
+                        row.accel_mps2[i] = *f;
+                    }
                 }
             }
         }
@@ -229,10 +244,23 @@ impl Diagnosis {
 
     /// The `rins-diagnose/1` JSON.
     pub fn to_json(&self) -> Value {
+        let det = &self.details;
         let resid: Map<String, Value> = CHANNELS
             .iter()
-            .zip(&self.details.res_before)
-            .map(|(n, r)| ((*n).to_string(), super::rms(r).into()))
+            .zip(&det.res_before)
+            .enumerate()
+            .filter(|(ch, _)| *ch < 3 || det.accel_recorded)
+            .map(|(_, (n, r))| ((*n).to_string(), super::rms(r).into()))
+            .collect();
+        let ruled_out: Vec<Value> = det
+            .ruled_out
+            .iter()
+            .map(|(id, why)| json!({"effect": id.as_str(), "why": why}))
+            .collect();
+        let segments: Vec<Value> = det
+            .segments
+            .iter()
+            .map(|(a, b, n)| json!({"start_s": a, "end_s": b, "samples": n}))
             .collect();
         json!({
             "format": "rins-diagnose/1",
@@ -240,6 +268,9 @@ impl Diagnosis {
             "nominal": {"residual_rms": resid},
             "findings": self.findings.iter().map(Finding::to_json).collect::<Vec<_>>(),
             "unexplained": self.unexplained,
+            "ruled_out": ruled_out,
+            "segments": segments,
+            "rate_hz": det.rate_hz,
         })
     }
 }

@@ -7,8 +7,8 @@ use super::effects;
 use super::select::{params_of, select};
 use super::{check, final_noise, predict, DiagnoseError, Options, BIC_MARGIN, NOMINAL_PRIOR};
 use hal_sim::catalogue::EffectId;
-use hal_sim::recording::Recording;
 use nalgebra::{DMatrix, DVector};
+use recording::Recording;
 
 /// Does the residual's Allan deviation show more than white noise? Returns
 /// the fitted (white, bias instability) and the ratio of the long-tau ADEV
@@ -53,7 +53,7 @@ pub fn fisher(
     }
     let pn = predict(null, 1.0, 0.0);
     let first = Design::build(&pn, effects::library(&pn), opts, None);
-    let sel = select(&first);
+    let (sel, _) = select(&first);
     let noise = final_noise(&first, &sel);
     let p0 = predict(sig_null, 1.0, 0.0);
     let p1 = predict(sig_with, 1.0, 0.0);

@@ -4,7 +4,7 @@
 //! differentiated into rate noise), and what is left unexplained.
 
 use super::noise::Noise;
-use super::{blocks, rms, Prediction, Unexplained, BIC_MARGIN, CHANNELS};
+use super::{rms, Prediction, Unexplained, BIC_MARGIN, CHANNELS};
 use nalgebra::{DMatrix, DVector};
 
 /// Highest table-angle harmonic looked at.
@@ -288,6 +288,7 @@ pub fn unexplained(
     ln_n: f64,
 ) -> Vec<Unexplained> {
     let n = p.t_s.len();
+    let bl = p.blocks(len);
     let theta: Vec<f64> = p.theta.iter().map(|t| t.0).collect();
     let span = theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
         - theta.iter().copied().fold(f64::INFINITY, f64::min);
@@ -343,7 +344,7 @@ pub fn unexplained(
             .map(|(_, cols)| {
                 cols.iter()
                     .map(|c| {
-                        g.whiten_into(&blocks(c, len), &mut buf);
+                        g.whiten_into(&bl.mean(c), &mut buf);
                         DVector::from_iterator(nb, buf.iter().map(|v| v * s))
                     })
                     .collect()

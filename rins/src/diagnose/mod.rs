@@ -61,15 +61,15 @@ pub use error::DiagnoseError;
 pub use finding::{Details, Diagnosis, Finding, FitFigures, Parameter, Unexplained};
 pub use fisher::{allan_excess, fisher, lambda_50};
 pub use model::{Model, Options};
-pub use predict::{blocks, encoder_quantum, predict, rms, Prediction};
+pub use predict::{encoder_quantum, predict, rms, Blocks, Prediction};
 
 use design::Design;
 use design::Key;
 use effects::{Candidate, Kind};
-use hal_sim::recording::Recording;
 use model::apply_known;
 use noise::Noise;
 use predict::{check, dt_of};
+use recording::Recording;
 use report::report;
 use select::{confirm_slow, report_stats, select, strongest_p, Selection};
 
@@ -121,7 +121,9 @@ pub fn run(
     let earth_scale = earth_known.map_or(earth_scale, |w| w / omega);
     let mut p = predict(rec, earth_scale, dt_known);
     apply_known(&mut p, model)?;
-    let blocks_n = (p.t_s.len() - 1) / ((opts.block_s / dt_of(&p)).round() as usize).max(1);
+    let blocks_n = p
+        .blocks(((opts.block_s / dt_of(&p)).round() as usize).max(1))
+        .count();
     if !(opts.block_s.is_finite() && opts.block_s > 0.0) || blocks_n < 50 {
         return Err(DiagnoseError::TooFewBlocks {
             blocks: blocks_n,
@@ -137,10 +139,10 @@ pub fn run(
     // Pass 1: noise from the nominal residual; pass 2: from the residual of
     // the selected model (more power once the found effects are out of it).
     let d1 = Design::build(&p, lib(&p), opts, None);
-    let s1 = select(&d1);
+    let (s1, _) = select(&d1);
     let noise2 = final_noise(&d1, &s1);
     let mut d = Design::build(&p, lib(&p), opts, Some(&noise2));
-    let mut sel = select(&d);
+    let (mut sel, implausible) = select(&d);
     let mut unconfirmed = vec![];
     // A slow finding is confirmed on long blocks (select::confirm_slow):
     // COARSE_BLOCK_S, or shorter so that the run still makes 50 blocks.
@@ -211,6 +213,9 @@ pub fn run(
     let (p_min, which) = strongest_p(&d, &sel, &disp);
     dg.details.strongest_p_adjusted = (ids_tried as f64 * p_min).min(1.0);
     dg.details.strongest_effect = which;
+    for imp in &implausible {
+        dg.unexplained.push(implausible_line(&d, &p, imp));
+    }
     for u in &unconfirmed {
         dg.unexplained.push(Unexplained {
             channels: u.channels.iter().filter_map(|c| CHANNELS.get(*c)).map(|c| (*c).to_string()).collect(),
@@ -230,6 +235,34 @@ pub fn run(
     Ok(dg)
 }
 
+/// A refused candidate as a person reads it: what it looks like, the size
+/// it would need and why no sensor has it.
+fn implausible_line(d: &Design, p: &Prediction, imp: &select::Implausible) -> Unexplained {
+    let c = &d.cands[imp.cand];
+    let b = c.bound();
+    let (name, v, sd) = &imp.param;
+    let mut what = format!(
+        "looks like {} but {name} = {v:.3e} +- {sd:.1e} {} is {:.1}x the largest physically possible ({:.3e}: {})",
+        c.id, b.unit, imp.ratio, b.max_abs, b.source
+    );
+    if c.kind == Kind::EarthRate {
+        what += &format!(
+            "; that is {:.1}x the earth's rate: a signal locked to the table angle, not the earth",
+            (v + p.earth_in_model_radps).abs() / core_nav::earth::EARTH_RATE_RADPS
+        );
+    }
+    Unexplained {
+        channels: select::channels_of(d, imp.cand)
+            .iter()
+            .filter_map(|ch| CHANNELS.get(*ch))
+            .map(|c| (*c).to_string())
+            .collect(),
+        where_: format!("{what}; {}", c.where_()),
+        snr: imp.snr,
+        may_be: Some(c.id),
+    }
+}
+
 /// The effect ids the library tried on this run, bias instability
 /// included (the multiplicity of the confidences).
 fn effects_tried(d: &Design) -> usize {
@@ -243,7 +276,10 @@ fn effects_tried(d: &Design) -> usize {
 /// Noise models re-fitted to the residual of a selection.
 fn final_noise(d: &Design, s: &Selection) -> [Noise; 6] {
     let block_s = d.ch[0].noise.block_s;
-    let fit = |ch: usize| noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]);
+    let fit = |ch: usize| match d.ch[ch].owners.is_empty() {
+        true => Noise::none(block_s),
+        false => noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]),
+    };
     let v: Vec<Noise> = std::thread::scope(|sc| {
         let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || fit(ch))).collect();
         hs.into_iter()

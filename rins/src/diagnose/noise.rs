@@ -37,6 +37,19 @@ pub struct Noise {
 }
 
 impl Noise {
+    /// The model of a channel that was not recorded: no noise, nothing
+    /// fitted.
+    pub fn none(block_s: f64) -> Self {
+        Self {
+            block_s,
+            r: 0.0,
+            lambda: 0.0,
+            phi: 0.0,
+            loglik: 0.0,
+            quant: 0.0,
+        }
+    }
+
     /// White noise density, unit x sqrt(s) (ARW rad/sqrt(s), VRW m/s/sqrt(s)).
     pub fn white_density(&self) -> f64 {
         (self.r * self.block_s).sqrt()

@@ -3,10 +3,10 @@
 //! the input checks.
 
 use super::DiagnoseError;
-use hal_sim::recording::Recording;
-pub use hal_sim::track::encoder_quantum;
-use hal_sim::track::EncoderTrack;
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+pub use recording::track::encoder_quantum;
+use recording::track::EncoderTrack;
+use recording::Recording;
 
 /// The ideal sensor and the table motion at each IMU sample.
 #[derive(Clone, Debug, Default)]
@@ -37,6 +37,15 @@ pub struct Prediction {
     pub track: EncoderTrack,
     /// IMU samples are this late relative to their stamps, s.
     pub time_offset_s: f64,
+    /// Nominal sample interval, s (`1 / [imu] rate_hz`).
+    pub dt_s: f64,
+    /// The recording has accelerometer columns (else gyro-only: the
+    /// accelerometer channels hold the ideal values, are left out of every
+    /// fit and reported as not recorded).
+    pub accel_recorded: bool,
+    /// The table angle is an encoder's measurement (else commanded, or no
+    /// table: effects that need a measured angle are not offered).
+    pub angle_measured: bool,
     /// Measured samples minus the model's known effects: gyro (rad/s).
     pub y_w: Vec<Vector3<f64>>,
     /// See `y_w`: accel (m/s^2).
@@ -48,11 +57,22 @@ pub struct Prediction {
 }
 
 impl Prediction {
+    /// Blocks of `len` sample intervals over the prediction's samples,
+    /// never across a gap.
+    pub fn blocks(&self, len: usize) -> Blocks {
+        Blocks::new(&self.t_s, self.dt_s, len)
+    }
+
     /// Encoder angle at stamp `t` (rad): the read itself when one is stamped
     /// there (to 1 us), else the table's fitted shape through the reads
     /// (hal-sim's [`EncoderTrack`]).
     pub fn angle_at(&self, t: f64) -> f64 {
         self.track.angle(t)
+    }
+
+    /// Whether channel `ch` (0-2 gyro, 3-5 accel) was recorded.
+    pub fn recorded(&self, ch: usize) -> bool {
+        ch < 3 || self.accel_recorded
     }
 
     /// Ideal value of channel `ch` at sample `r`.
@@ -118,6 +138,9 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         temp_recorded,
         track,
         time_offset_s,
+        dt_s: rec.dt_s(),
+        accel_recorded: !rec.gyro_only,
+        angle_measured: rec.meta.table_source.is_measured(),
         ..Prediction::default()
     };
     for r in &rec.imu {
@@ -133,7 +156,11 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         p.theta.push((th, rate, acc));
         p.dtemp.push(r.temp_c.map_or(0.0, |t| t - temp0));
         p.y_w.push(Vector3::from(r.gyro_radps));
-        p.y_f.push(Vector3::from(r.accel_mps2));
+        p.y_f.push(if rec.gyro_only {
+            f
+        } else {
+            Vector3::from(r.accel_mps2)
+        });
     }
     p
 }
@@ -143,21 +170,67 @@ pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
 }
 
-/// Block means of `v` over `len` sample intervals: block `b` is the
-/// trapezoid integral over samples `b len ..= (b + 1) len` (neighbours share
-/// their edge sample) over its length, so a block is the mean over an
-/// interval that starts and ends on a sample (where the encoder angle is
-/// known), not over the samples' centres. A partial last block is dropped.
-pub fn blocks(v: &[f64], len: usize) -> Vec<f64> {
-    let len = len.max(1);
-    let nb = v.len().saturating_sub(1) / len;
-    (0..nb)
-        .map(|b| {
-            let s = &v[b * len..=(b + 1) * len];
-            let inner: f64 = s[1..len].iter().sum();
-            (inner + 0.5 * (s[0] + s[len])) / len as f64
-        })
-        .collect()
+/// Blocks of `len` sample intervals that never straddle a gap
+/// (recording-v1): each starts on a sample and ends `len` samples later,
+/// inside one segment; a segment's partial last block is dropped.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Blocks {
+    /// First sample of each block.
+    pub starts: Vec<usize>,
+    /// Sample intervals per block.
+    pub len: usize,
+}
+
+impl Blocks {
+    /// Blocks of `len` intervals over samples at `t_s` (s) with the nominal
+    /// interval `dt_s` (s).
+    pub fn new(t_s: &[f64], dt_s: f64, len: usize) -> Self {
+        let len = len.max(1);
+        let mut starts = vec![];
+        for seg in recording::segments(t_s, dt_s) {
+            let mut a = seg.start;
+            while a + len < seg.end {
+                starts.push(a);
+                a += len;
+            }
+        }
+        Self { starts, len }
+    }
+
+    /// Blocks of `block_s` seconds over the recording's samples.
+    pub fn of(rec: &Recording, block_s: f64) -> Self {
+        let t: Vec<f64> = rec.imu.iter().map(|r| r.t_s).collect();
+        let dt = rec.dt_s();
+        Self::new(&t, dt, ((block_s / dt).round() as usize).max(1))
+    }
+
+    /// Number of blocks.
+    pub fn count(&self) -> usize {
+        self.starts.len()
+    }
+
+    /// The middle sample of block `b`.
+    pub fn middle(&self, b: usize) -> usize {
+        self.starts.get(b).map_or(0, |s| s + self.len / 2)
+    }
+
+    /// Block means of `v` (one value per sample): block `b` is the
+    /// trapezoid integral over samples `start ..= start + len` (neighbours
+    /// share their edge sample) over its length, so a block is the mean
+    /// over an interval that starts and ends on a sample (where the encoder
+    /// angle is known), not over the samples' centres.
+    pub fn mean(&self, v: &[f64]) -> Vec<f64> {
+        let len = self.len;
+        self.starts
+            .iter()
+            .filter_map(|a| v.get(*a..=a + len))
+            .map(|s| {
+                let inner: f64 = s.iter().skip(1).take(len - 1).sum();
+                let ends = s.first().copied().unwrap_or(0.0) + s.last().copied().unwrap_or(0.0);
+                (inner + 0.5 * ends) / len as f64
+            })
+            .collect()
+    }
 }
 
 pub(super) fn check(rec: &Recording) -> Result<(), DiagnoseError> {
@@ -174,7 +247,7 @@ pub(super) fn check(rec: &Recording) -> Result<(), DiagnoseError> {
     for (i, r) in rec.imu.iter().enumerate() {
         if !(r.t_s.is_finite()
             && r.gyro_radps.iter().all(|v| v.is_finite())
-            && r.accel_mps2.iter().all(|v| v.is_finite()))
+            && (rec.gyro_only || r.accel_mps2.iter().all(|v| v.is_finite())))
         {
             return Err(DiagnoseError::NonFiniteImu {
                 index: i,
@@ -192,11 +265,7 @@ pub(super) fn check(rec: &Recording) -> Result<(), DiagnoseError> {
     Ok(())
 }
 
+/// The nominal sample interval, s (`1 / [imu] rate_hz`).
 pub(super) fn dt_of(p: &Prediction) -> f64 {
-    let n = p.t_s.len();
-    if n > 1 {
-        (p.t_s[n - 1] - p.t_s[0]) / (n - 1) as f64
-    } else {
-        0.01
-    }
+    p.dt_s
 }

@@ -90,16 +90,23 @@ pub(super) fn report(
                 cand: *ci,
                 param: pi,
             }) {
+                // The bound is on the fitted size; the earth rate is reported
+                // with the model's own added back.
+                let mut max_abs = c.bound().max_abs;
                 if c.kind == Kind::EarthRate {
                     v += p.earth_in_model_radps;
+                    max_abs += p.earth_in_model_radps;
                 }
                 if c.kind == Kind::TimeOffset {
-                    v = time_offset_fitted;
+                    // The gyros' offset was refined into the prediction; the
+                    // accelerometers' is fitted relative to it.
+                    v = time_offset_fitted + if pi == 0 { 0.0 } else { v };
                 }
                 params.push(Parameter {
                     name: pn.clone(),
                     value: v,
                     sigma: Some(s),
+                    max_abs: Some(max_abs),
                 });
             }
         }
@@ -108,6 +115,7 @@ pub(super) fn report(
                 name: pn,
                 value: v,
                 sigma: None,
+                max_abs: None,
             });
         }
         findings.push((
@@ -139,6 +147,9 @@ pub(super) fn report(
     let fits: Vec<(Vec<f64>, Noise, Noise)> = std::thread::scope(|sc| {
         let one = |ch: usize| {
             let z = d.block_residual(&sel.fit, ch);
+            if !p.recorded(ch) {
+                return (z, Noise::none(block_s), Noise::none(block_s));
+            }
             let gm = noise::fit(&z, block_s, d.quant[ch]);
             let wn = noise::fit_white(&z, block_s, d.quant[ch]);
             (z, gm, wn)
@@ -200,6 +211,7 @@ pub(super) fn report(
                     name,
                     value,
                     sigma: None,
+                    max_abs: None,
                 });
             }
         }
@@ -274,6 +286,16 @@ pub(super) fn report(
         details: Details {
             noise: noise_final,
             not_observable,
+            ruled_out: super::effects::ruled_out(p),
+            segments: recording::segments(&p.t_s, p.dt_s)
+                .iter()
+                .map(|s| {
+                    let t = |i: usize| p.t_s.get(i).copied().unwrap_or(0.0);
+                    (t(s.start), t(s.end.saturating_sub(1)), s.len())
+                })
+                .collect(),
+            rate_hz: 1.0 / p.dt_s,
+            accel_recorded: p.accel_recorded,
             locate,
             block_s,
             dt_s: dt,

@@ -13,15 +13,63 @@ pub(super) struct Selection {
     pub(super) fit: Fit,
 }
 
-pub(super) fn select(d: &Design) -> Selection {
+/// A candidate the data would take, but only at a size no sensor, table or
+/// site can have (beyond its catalogue bound): not a finding, reported
+/// among the unexplained mismatches with its size and the reason.
+#[derive(Clone, Debug)]
+pub(super) struct Implausible {
+    /// The candidate.
+    pub(super) cand: usize,
+    /// Its parameter furthest beyond the bound: name, fitted value, sigma.
+    pub(super) param: (String, f64, f64),
+    /// How many times the bound the value is.
+    pub(super) ratio: f64,
+    /// Whitened evidence (amplitude over its standard error).
+    pub(super) snr: f64,
+}
+
+/// The parameter of candidate `ci` in `f` furthest beyond its bound, if any
+/// is beyond it: (param index, value, sigma, ratio to the bound).
+fn beyond_bound(d: &Design, f: &Fit, ci: usize) -> Option<(usize, f64, f64, f64)> {
+    let b = d.cands.get(ci)?.bound().max_abs;
+    f.index
+        .iter()
+        .filter_map(|(k, _)| match k {
+            Key::Effect { cand, param } if *cand == ci => {
+                f.value(*k).map(|(v, s)| (*param, v, s, v.abs() / b))
+            }
+            _ => None,
+        })
+        .filter(|x| x.3 > 1.0)
+        .max_by(|a, b| a.3.total_cmp(&b.3))
+}
+
+fn implausible(d: &Design, base: &Fit, f: &Fit, ci: usize) -> Option<Implausible> {
+    let (pi, v, sd, ratio) = beyond_bound(d, f, ci)?;
+    let name = d
+        .names
+        .get(ci)
+        .and_then(|n| n.get(pi))
+        .cloned()
+        .unwrap_or_default();
+    Some(Implausible {
+        cand: ci,
+        param: (name, v, sd),
+        ratio,
+        snr: (base.rss_w - f.rss_w).max(0.0).sqrt(),
+    })
+}
+
+pub(super) fn select(d: &Design) -> (Selection, Vec<Implausible>) {
     let ln_n = (d.rows().max(2) as f64).ln();
     let mut set: Vec<usize> = vec![];
     let mut cur = d.fit(&set);
+    let mut refused: Vec<Implausible> = vec![];
     loop {
         let mut best: Option<(f64, usize, Fit)> = None;
         for ci in 0..d.cands.len() {
             let id = d.cands[ci].id;
-            if set.iter().any(|s| d.cands[*s].id == id) {
+            if set.iter().any(|s| d.cands[*s].id == id) || refused.iter().any(|r| r.cand == ci) {
                 continue;
             }
             let Some((dbic, f)) = adding(d, &set, &cur, ci, ln_n) else {
@@ -35,14 +83,18 @@ pub(super) fn select(d: &Design) -> Selection {
             }
         }
         match best {
-            Some((_, ci, f)) => {
-                set.push(ci);
-                cur = f;
-            }
+            Some((_, ci, f)) => match implausible(d, &cur, &f, ci) {
+                Some(imp) => refused.push(imp),
+                None => {
+                    set.push(ci);
+                    cur = f;
+                }
+            },
             None => break,
         }
     }
-    // Backward check: every member must still earn its place.
+    // Backward check: every member must still earn its place, at a
+    // possible size.
     loop {
         let mut drop = None;
         for (pos, &ci) in set.iter().enumerate() {
@@ -50,6 +102,11 @@ pub(super) fn select(d: &Design) -> Selection {
             let f0 = d.fit(&rest);
             let k = dof(d, &cur, ci);
             let dbic = (cur.rss_w - f0.rss_w) + k as f64 * ln_n;
+            if let Some(imp) = implausible(d, &f0, &cur, ci) {
+                refused.push(imp);
+                drop = Some((pos, f0));
+                break;
+            }
             if dbic >= -BIC_MARGIN {
                 drop = Some((pos, f0));
                 break;
@@ -63,7 +120,16 @@ pub(super) fn select(d: &Design) -> Selection {
             None => break,
         }
     }
-    Selection { set, fit: cur }
+    // One line per id: its strongest refusal.
+    refused.sort_by(|a, b| b.snr.total_cmp(&a.snr));
+    let mut seen = vec![];
+    refused.retain(|r| {
+        let id = d.cands[r.cand].id;
+        let new = !seen.contains(&id);
+        seen.push(id);
+        new
+    });
+    (Selection { set, fit: cur }, refused)
 }
 
 /// The model `base` (fitted as `base_fit`) with candidate `ci` added: its

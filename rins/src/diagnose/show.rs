@@ -2,7 +2,7 @@
 //! (residuals before / after, the table-angle harmonic spectrum, Allan
 //! deviation before / after).
 
-use super::{blocks, Diagnosis, CHANNELS};
+use super::{Blocks, Diagnosis, CHANNELS};
 use crate::plot::{Chart, PlotError, Series};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -43,16 +43,55 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
     let dur = det.t_s.last().copied().unwrap_or(0.0) - det.t_s.first().copied().unwrap_or(0.0);
     let _ = writeln!(
         o,
-        "{name}: {:.0} s at {:.0} Hz; nominal model fitted (bias, scale, misalignment), residual in {:.1} s blocks",
+        "{name}: {:.0} s at {:.0} Hz ([imu] rate_hz); nominal model fitted (bias, scale, misalignment), residual in {:.1} s blocks",
         dur,
-        1.0 / det.dt_s.max(1e-9),
+        det.rate_hz,
         det.block_s
     );
+    if det.segments.len() > 1 {
+        let n: usize = det.segments.iter().map(|s| s.2).sum();
+        let _ = writeln!(
+            o,
+            "  {} segments between gaps (over 2.5 sample periods; no block straddles one), {n} samples:",
+            det.segments.len()
+        );
+        let show = 4;
+        for (a, b, k) in det.segments.iter().take(show) {
+            let _ = writeln!(o, "    {a:.3} .. {b:.3} s, {k} samples");
+        }
+        if det.segments.len() > show {
+            let _ = writeln!(
+                o,
+                "    ... ({} more; all in the JSON)",
+                det.segments.len() - show
+            );
+        }
+    }
+    if !det.accel_recorded {
+        let _ = writeln!(
+            o,
+            "  gyro-only: no accelerometer columns, accelerometer terms not offered"
+        );
+    }
+    if !det.ruled_out.is_empty() {
+        let _ = writeln!(
+            o,
+            "
+ruled out by the recording itself:"
+        );
+        for (id, why) in &det.ruled_out {
+            let _ = writeln!(o, "  {id}: {why}");
+        }
+    }
     let _ = writeln!(
         o,
         "\nnoise model of the final residual (white + Gauss-Markov, ML):"
     );
     for (ch, n) in det.noise.iter().enumerate() {
+        if ch >= 3 && !det.accel_recorded {
+            let _ = writeln!(o, "  {:<14} not recorded", CHANNELS.get(ch).unwrap_or(&""));
+            continue;
+        }
         let (s, u) = eng(ch);
         let white = if ch < 3 {
             format!(
@@ -232,8 +271,12 @@ pub fn model_adev(n: &super::noise::Noise, tau: f64) -> f64 {
 pub fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<std::path::PathBuf>, PlotError> {
     let det = &d.details;
     let mut out = vec![];
-    let len = ((1.0 / det.dt_s.max(1e-9)).round() as usize).max(1);
-    let tb: Vec<f64> = blocks(&det.t_s, len);
+    let bl = Blocks::new(
+        &det.t_s,
+        det.dt_s,
+        ((1.0 / det.dt_s.max(1e-9)).round() as usize).max(1),
+    );
+    let tb: Vec<f64> = bl.mean(&det.t_s);
     for (triad, label) in [(0usize, "gyro"), (1, "accel")] {
         // Residuals before / after, 1 s means.
         let mut c = Chart {
@@ -253,7 +296,7 @@ pub fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<std::path::PathBuf>, PlotE
                 ("nominal", &det.res_before[ch], false),
                 ("after", &det.res_after[ch], true),
             ] {
-                let b = blocks(res, len);
+                let b = bl.mean(res);
                 let mut se = Series::line(
                     format!("{} {which}", CHANNELS[ch]),
                     tb.iter().zip(&b).map(|(t, v)| (*t, v * s)).collect(),

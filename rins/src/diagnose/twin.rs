@@ -21,10 +21,10 @@ use super::locate::{harmonics, parts, PART_LABELS};
 
 #[path = "twin_show.rs"]
 mod show;
-use super::{blocks, predict, Diagnosis, Model};
+use super::{predict, Blocks, Diagnosis, Model};
 use hal_sim::catalogue::EffectId;
-use hal_sim::recording::Recording;
 use hal_sim::twin::{simulate_like, ChannelNoise, SimModel, TwinError, Warmup, FORMAT};
+use recording::Recording;
 pub use show::{plots, text};
 
 /// Block length of the closeness measure, s.
@@ -69,15 +69,6 @@ impl Closeness {
     }
 }
 
-fn block_len(rec: &Recording) -> usize {
-    let n = rec.imu.len();
-    let dt = match (rec.imu.first(), rec.imu.last()) {
-        (Some(a), Some(b)) if n > 1 => (b.t_s - a.t_s) / (n - 1) as f64,
-        _ => 0.01,
-    };
-    ((CLOSENESS_BLOCK_S / dt.max(1e-9)).round() as usize).max(1)
-}
-
 fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len()).max(1);
     (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>() / n as f64).sqrt()
@@ -105,11 +96,11 @@ pub fn closeness(rec: &Recording, model: &SimModel, seed: u64) -> Result<Closene
 
 /// The closeness of `rec` to already simulated `twins` (at least two).
 pub fn closeness_to(rec: &Recording, twins: &[Recording]) -> Closeness {
-    let len = block_len(rec);
+    let bl = Blocks::of(rec, CLOSENESS_BLOCK_S);
     let mut c = Closeness::default();
     for ch in 0..6 {
-        let r = blocks(&rec.channel(ch), len);
-        let tw: Vec<Vec<f64>> = twins.iter().map(|t| blocks(&t.channel(ch), len)).collect();
+        let r = bl.mean(&rec.channel(ch));
+        let tw: Vec<Vec<f64>> = twins.iter().map(|t| bl.mean(&t.channel(ch))).collect();
         let ms = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64;
         let rt: Vec<f64> = tw.iter().map(|t| rms_diff(&r, t)).collect();
         let mut tt = vec![];
@@ -239,6 +230,8 @@ fn put(m: &mut SimModel, name: &str, v: f64) {
         }
     } else if name == "time_offset_s" {
         add(&mut m.time_offset_s);
+    } else if name == "accel_time_offset_s" {
+        m.accel_time_offset_s = Some(m.accel_time_offset_s.unwrap_or(0.0) + v);
     } else if let Some(rest) = name.strip_prefix("temp_bias_") {
         if let Some(i) = axis(nth(rest, 0)) {
             if rest.contains("radps") {
@@ -305,10 +298,7 @@ impl TwinReport {
 }
 
 fn residuals(rec: &Recording, twin: &Recording, part: &[usize], theta: &[f64]) -> Residuals {
-    let dt = match (rec.imu.first(), rec.imu.last()) {
-        (Some(a), Some(b)) if rec.imu.len() > 1 => (b.t_s - a.t_s) / (rec.imu.len() - 1) as f64,
-        _ => 0.01,
-    };
+    let dt = rec.dt_s();
     let res: Vec<Vec<f64>> = (0..6)
         .map(|ch| {
             rec.channel(ch)
@@ -325,10 +315,10 @@ fn residuals(rec: &Recording, twin: &Recording, part: &[usize], theta: &[f64]) -
     };
     // By motion on 0.2 s means (a block's part is its middle sample's): the
     // white noise averaged down, a misfit that follows the motion left.
-    let len = ((0.2 / dt.max(1e-9)).round() as usize).max(1);
-    let bres: Vec<Vec<f64>> = res.iter().map(|r| blocks(r, len)).collect();
-    let bpart: Vec<usize> = (0..bres.first().map_or(0, |b| b.len()))
-        .map(|b| part.get(b * len + len / 2).copied().unwrap_or(0))
+    let bl = Blocks::of(rec, 0.2);
+    let bres: Vec<Vec<f64>> = res.iter().map(|r| bl.mean(r)).collect();
+    let bpart: Vec<usize> = (0..bl.count())
+        .map(|b| part.get(bl.middle(b)).copied().unwrap_or(0))
         .collect();
     for (li, label) in PART_LABELS.iter().enumerate() {
         let idx: Vec<usize> = (0..bpart.len()).filter(|b| bpart[*b] == li).collect();
@@ -444,6 +434,9 @@ fn strip(acc: &SimModel, without: &SimModel, full: &SimModel) -> SimModel {
         full.earth_rate_scale,
     );
     m.time_offset_s = pick(acc.time_offset_s, without.time_offset_s, full.time_offset_s);
+    if without.accel_time_offset_s != full.accel_time_offset_s {
+        m.accel_time_offset_s = without.accel_time_offset_s;
+    }
     m.lever_arm_m = pick3(acc.lever_arm_m, without.lever_arm_m, full.lever_arm_m);
     m.tilt_rad = pick3(acc.tilt_rad, without.tilt_rad, full.tilt_rad);
     m.encoder_error_rad = std::array::from_fn(|i| {

@@ -10,6 +10,15 @@
 //!
 //! The writer prints every number with Rust's shortest round-trip
 //! representation, so write -> read -> write gives identical files.
+//!
+//! A crate of its own: boards, the simulator, the host tools and the tests
+//! all read and write this format. [`moving`]: the moving-base keys and
+//! files (`gnss.csv`, `truth.csv`); [`track`]: the table's motion from the
+//! recorded encoder reads.
+
+pub mod moving;
+pub mod relabel;
+pub mod track;
 
 use core_nav::table::Axis;
 use std::fmt;
@@ -61,6 +70,39 @@ pub struct Meta {
     pub axis: Axis,
     /// Encoder read rate, Hz.
     pub encoder_rate_hz: f64,
+    /// What `table.csv`'s angle is: measured, commanded, or no table.
+    pub table_source: TableSource,
+}
+
+/// What the table angle of a recording is (`[table] source`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum TableSource {
+    /// Read from an encoder (the default): a measurement.
+    #[default]
+    Encoder,
+    /// The angle the table was told to be at (`source = "commanded"`): not a
+    /// measurement; effects that need a measured angle (encoder errors,
+    /// offsets between the IMU and the encoder) cannot be fitted.
+    Commanded,
+    /// No table (no `table.csv` and no `[table]`): an IMU fixed to its base,
+    /// read as a table that never turns, at angle 0.
+    None,
+}
+
+impl TableSource {
+    /// The name `[table] source` gives it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            TableSource::Encoder => "encoder",
+            TableSource::Commanded => "commanded",
+            TableSource::None => "none",
+        }
+    }
+
+    /// Whether the angle is a measurement of the table (an encoder).
+    pub fn is_measured(self) -> bool {
+        self == TableSource::Encoder
+    }
 }
 
 impl Meta {
@@ -91,6 +133,7 @@ impl Default for Meta {
             imu_sample: SampleKind::Instantaneous,
             axis: Axis::Z,
             encoder_rate_hz: 50.0,
+            table_source: TableSource::Encoder,
         }
     }
 }
@@ -103,7 +146,8 @@ pub struct ImuRow {
     pub t_s: f64,
     /// Angular rate `w_is_s`, rad/s.
     pub gyro_radps: [f64; 3],
-    /// Specific force `f_s`, m/s^2.
+    /// Specific force `f_s`, m/s^2 (NaN in a gyro-only recording:
+    /// [`Recording::gyro_only`]).
     pub accel_mps2: [f64; 3],
     /// IMU temperature, deg C (optional column).
     pub temp_c: Option<f64>,
@@ -150,6 +194,59 @@ pub struct Recording {
     pub table: Vec<TableRow>,
     /// The moving-base keys and files (`[base] moving = true`), if any.
     pub moving: Option<crate::moving::MovingBase>,
+    /// `imu.csv` has no accelerometer columns: every row's `accel_mps2` is
+    /// NaN, and tools that need accelerometers refuse it
+    /// ([`Recording::require_accel`]).
+    pub gyro_only: bool,
+}
+
+/// A run of IMU rows with no gap inside (recording-v1: an interval over
+/// [`GAP_PERIODS`] sample periods is a gap).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Segment {
+    /// First row.
+    pub start: usize,
+    /// One past the last row.
+    pub end: usize,
+}
+
+impl Segment {
+    /// Rows in the segment.
+    pub fn len(&self) -> usize {
+        self.end.saturating_sub(self.start)
+    }
+
+    /// Whether the segment has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// An interval longer than this many nominal sample periods is a gap
+/// (recording-v1).
+pub const GAP_PERIODS: f64 = 2.5;
+
+/// Sample times `t_s` (s, increasing) split at the gaps: intervals over
+/// [`GAP_PERIODS`] times the nominal interval `dt_s`.
+pub fn segments(t_s: &[f64], dt_s: f64) -> Vec<Segment> {
+    let limit = GAP_PERIODS * dt_s;
+    let mut out = vec![];
+    let mut start = 0;
+    for (i, w) in t_s.windows(2).enumerate() {
+        if let [a, b] = w {
+            if b - a > limit {
+                out.push(Segment { start, end: i + 1 });
+                start = i + 1;
+            }
+        }
+    }
+    if start < t_s.len() {
+        out.push(Segment {
+            start,
+            end: t_s.len(),
+        });
+    }
+    out
 }
 
 /// What went wrong reading or writing a recording: the file, the line (1-based)
@@ -186,6 +283,35 @@ pub(crate) fn err(path: &Path, line: Option<usize>, message: impl Into<String>) 
 }
 
 impl Recording {
+    /// The nominal sample interval, s: `1 / [imu] rate_hz` (never the span
+    /// over the count, which a gap would stretch).
+    pub fn dt_s(&self) -> f64 {
+        1.0 / self.meta.imu_rate_hz
+    }
+
+    /// The IMU rows split at the gaps: intervals over [`GAP_PERIODS`]
+    /// nominal periods. A recording without gaps is one segment.
+    pub fn segments(&self) -> Vec<Segment> {
+        let t: Vec<f64> = self.imu.iter().map(|r| r.t_s).collect();
+        segments(&t, self.dt_s())
+    }
+
+    /// Refuses a gyro-only recording, naming the missing columns, for a
+    /// tool that needs accelerometers (`what` names the tool).
+    ///
+    /// # Errors
+    /// The recording has no accelerometer columns.
+    pub fn require_accel(&self, what: &str) -> Result<(), RecordingError> {
+        if self.gyro_only {
+            return Err(err(
+                Path::new("imu.csv"),
+                Some(1),
+                format!("{what} needs accelerometers: this recording is gyro-only (no accel_x_mps2, accel_y_mps2, accel_z_mps2 columns)"),
+            ));
+        }
+        Ok(())
+    }
+
     /// Channel `ch` of every IMU row ([`ImuRow::channel`]).
     pub fn channel(&self, ch: usize) -> Vec<f64> {
         self.imu.iter().map(|r| r.channel(ch)).collect()
@@ -199,9 +325,20 @@ impl Recording {
         let meta_path = dir.join("meta.toml");
         let meta = parse_meta(&read_text(&meta_path)?, &meta_path)?;
         let imu_path = dir.join("imu.csv");
-        let imu = parse_imu(&read_text(&imu_path)?, &imu_path)?;
+        let (imu, gyro_only) = parse_imu_columns(&read_text(&imu_path)?, &imu_path)?;
         let table_path = dir.join("table.csv");
-        let table = parse_table(&read_text(&table_path)?, &table_path)?;
+        let table = if meta.table_source == TableSource::None {
+            if table_path.exists() {
+                return Err(err(
+                    &meta_path,
+                    None,
+                    "table.csv is present but meta.toml has no [table]: add [table] axis and encoder_rate_hz",
+                ));
+            }
+            still_table(&imu)
+        } else {
+            parse_table(&read_text(&table_path)?, &table_path)?
+        };
         let mut moving = crate::moving::parse_meta(&read_text(&meta_path)?, &meta_path)?;
         if let Some(m) = moving.as_mut() {
             let g = dir.join("gnss.csv");
@@ -218,6 +355,7 @@ impl Recording {
             imu,
             table,
             moving,
+            gyro_only,
         })
     }
 
@@ -231,8 +369,10 @@ impl Recording {
         let mut files = vec![
             ("meta.toml", self.meta_text()),
             ("imu.csv", self.imu_text()),
-            ("table.csv", self.table_text()),
         ];
+        if self.meta.table_source != TableSource::None {
+            files.push(("table.csv", self.table_text()));
+        }
         if let Some(m) = &self.moving {
             if let Some(g) = &m.gnss {
                 files.push(("gnss.csv", crate::moving::gnss_text(g)));
@@ -289,9 +429,14 @@ impl Recording {
         if m.imu_sample == SampleKind::Average {
             out!(s, "sample = \"average\"\n");
         }
-        out!(s, "\n[table]\n");
-        out!(s, "axis = {}\n", q(axis_name(m.axis)));
-        out!(s, "encoder_rate_hz = {}\n", toml_f64(m.encoder_rate_hz));
+        if m.table_source != TableSource::None {
+            out!(s, "\n[table]\n");
+            out!(s, "axis = {}\n", q(axis_name(m.axis)));
+            out!(s, "encoder_rate_hz = {}\n", toml_f64(m.encoder_rate_hz));
+            if m.table_source == TableSource::Commanded {
+                out!(s, "source = \"commanded\"\n");
+            }
+        }
         s.push_str(&mv_gnss);
         s
     }
@@ -300,14 +445,18 @@ impl Recording {
     pub fn imu_text(&self) -> String {
         let with_temp = !self.imu.is_empty() && self.imu.iter().all(|r| r.temp_c.is_some());
         let mut s = String::with_capacity(self.imu.len() * 120 + 100);
-        s.push_str(
-            "t_s,gyro_x_radps,gyro_y_radps,gyro_z_radps,accel_x_mps2,accel_y_mps2,accel_z_mps2",
-        );
+        s.push_str("t_s,gyro_x_radps,gyro_y_radps,gyro_z_radps");
+        if !self.gyro_only {
+            s.push_str(",accel_x_mps2,accel_y_mps2,accel_z_mps2");
+        }
         s.push_str(if with_temp { ",temp_c\n" } else { "\n" });
         for r in &self.imu {
             let [gx, gy, gz] = r.gyro_radps;
-            let [ax, ay, az] = r.accel_mps2;
-            out!(s, "{},{gx},{gy},{gz},{ax},{ay},{az}", r.t_s);
+            out!(s, "{},{gx},{gy},{gz}", r.t_s);
+            if !self.gyro_only {
+                let [ax, ay, az] = r.accel_mps2;
+                out!(s, ",{ax},{ay},{az}");
+            }
             match (with_temp, r.temp_c) {
                 (true, Some(t)) => {
                     out!(s, ",{t}\n");
@@ -423,16 +572,33 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Meta, RecordingError> {
         }
         None => return Err(err(path, None, "missing key format")),
     }
-    let axis_s = key(&t, "table", "axis", path)?
-        .as_str()
-        .ok_or_else(|| err(path, None, "table.axis must be a string"))?;
-    let axis = parse_axis(axis_s).ok_or_else(|| {
-        err(
-            path,
-            None,
-            format!("table.axis is {axis_s:?}, expected \"x\", \"y\" or \"z\""),
-        )
-    })?;
+    let has_table = t.get("table").is_some();
+    let axis = if has_table {
+        let axis_s = key(&t, "table", "axis", path)?
+            .as_str()
+            .ok_or_else(|| err(path, None, "table.axis must be a string"))?;
+        parse_axis(axis_s).ok_or_else(|| {
+            err(
+                path,
+                None,
+                format!("table.axis is {axis_s:?}, expected \"x\", \"y\" or \"z\""),
+            )
+        })?
+    } else {
+        Axis::Z
+    };
+    let table_source = match (has_table, opt_str(&t, "table", "source").as_deref()) {
+        (false, _) => TableSource::None,
+        (true, None | Some("encoder")) => TableSource::Encoder,
+        (true, Some("commanded")) => TableSource::Commanded,
+        (true, Some(o)) => {
+            return Err(err(
+                path,
+                None,
+                format!("table.source is {o:?}, expected \"encoder\" or \"commanded\""),
+            ))
+        }
+    };
     let imu_sample = match opt_str(&t, "imu", "sample").as_deref() {
         None | Some("instantaneous") => SampleKind::Instantaneous,
         Some("average") => SampleKind::Average,
@@ -467,7 +633,12 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Meta, RecordingError> {
         imu_rate_hz: req_num(&t, "imu", "rate_hz", path)?,
         imu_sample,
         axis,
-        encoder_rate_hz: req_num(&t, "table", "encoder_rate_hz", path)?,
+        encoder_rate_hz: if has_table {
+            req_num(&t, "table", "encoder_rate_hz", path)?
+        } else {
+            req_num(&t, "imu", "rate_hz", path)?
+        },
+        table_source,
     };
     if meta.imu_rate_hz <= 0.0 || meta.encoder_rate_hz <= 0.0 {
         return Err(err(path, None, "rates must be positive"));
@@ -624,15 +795,52 @@ pub const IMU_COLS: [&str; 8] = [
     "temp_c",
 ];
 
-/// Parses `imu.csv` text; `path` names the file in errors.
+/// Parses `imu.csv` text; `path` names the file in errors. A gyro-only file
+/// is an error here ([`parse_imu_columns`] reads one).
 ///
 /// # Errors
 /// Missing header columns, wrong field counts, non-numbers, non-finite
 /// values, time not increasing: each with the line.
 pub fn parse_imu(text: &str, path: &Path) -> Result<Vec<ImuRow>, RecordingError> {
+    let (rows, gyro_only) = parse_imu_columns(text, path)?;
+    if gyro_only {
+        return Err(err(path, Some(1), "missing column accel_x_mps2"));
+    }
+    Ok(rows)
+}
+
+/// Parses `imu.csv` text, the accelerometer columns optional (all three or
+/// none): the rows, and whether the file is gyro-only (then every row's
+/// accelerometer is NaN).
+///
+/// # Errors
+/// As [`parse_imu`]; one or two accelerometer columns without the others.
+pub fn parse_imu_columns(text: &str, path: &Path) -> Result<(Vec<ImuRow>, bool), RecordingError> {
     let (mut csv, idx) = Csv::open(text, path, &IMU_COLS)?;
+    let accel_present = (4..7)
+        .filter(|k| idx.get(*k).copied().flatten().is_some())
+        .count();
+    let gyro_only = match accel_present {
+        0 => true,
+        3 => false,
+        _ => {
+            let missing: Vec<&str> = (4..7)
+                .filter(|k| idx.get(*k).copied().flatten().is_none())
+                .filter_map(|k| IMU_COLS.get(k).copied())
+                .collect();
+            return Err(err(
+                path,
+                Some(1),
+                format!(
+                    "missing column {}: the accelerometer columns come all three or none",
+                    missing.join(", ")
+                ),
+            ));
+        }
+    };
+    let wanted = if gyro_only { 4 } else { 7 };
     let mut req = [0usize; 7];
-    for (k, slot) in req.iter_mut().enumerate() {
+    for (k, slot) in req.iter_mut().enumerate().take(wanted) {
         let name = IMU_COLS.get(k).copied().unwrap_or("");
         *slot = idx
             .get(k)
@@ -644,8 +852,8 @@ pub fn parse_imu(text: &str, path: &Path) -> Result<Vec<ImuRow>, RecordingError>
     let mut rows = Vec::with_capacity(text.len() / 100);
     let mut prev = None;
     while let Some(line) = csv.next_row()? {
-        let mut v = [0.0; 7];
-        for (k, (slot, col)) in v.iter_mut().zip(req).enumerate() {
+        let mut v = [f64::NAN; 7];
+        for (k, (slot, col)) in v.iter_mut().zip(req).enumerate().take(wanted) {
             *slot = csv.num(col, IMU_COLS.get(k).copied().unwrap_or(""), line)?;
         }
         let temp_c = match temp_col {
@@ -662,7 +870,18 @@ pub fn parse_imu(text: &str, path: &Path) -> Result<Vec<ImuRow>, RecordingError>
             temp_c,
         });
     }
-    Ok(rows)
+    Ok((rows, gyro_only))
+}
+
+/// The table of a recording without one: at angle 0 at every IMU sample
+/// (recording-v1: a table that never turns).
+fn still_table(imu: &[ImuRow]) -> Vec<TableRow> {
+    imu.iter()
+        .map(|r| TableRow {
+            t_s: r.t_s,
+            angle_rad: 0.0,
+        })
+        .collect()
 }
 
 /// Parses `table.csv` text; `path` names the file in errors.

@@ -230,7 +230,7 @@ impl EncoderTrack {
 
     /// The track through `rec`'s encoder reads (the quantum found from the
     /// steps between reads).
-    pub fn of(rec: &crate::recording::Recording) -> Self {
+    pub fn of(rec: &crate::Recording) -> Self {
         let t: Vec<f64> = rec.table.iter().map(|r| r.t_s).collect();
         let a: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
         let q = encoder_quantum(&a);

@@ -4,7 +4,7 @@
 //! simulated runs, `truth.csv` (the base's true motion, trajectory-v1
 //! columns).
 
-use crate::recording::{err, parse_columns, RecordingError};
+use crate::{err, parse_columns, RecordingError};
 use std::fmt::Write as _;
 use std::path::Path;
 
