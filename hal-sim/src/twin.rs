@@ -274,14 +274,6 @@ fn set_triad(t: &mut crate::imu::TriadModel, terms: &TriadTerms, temp_bias: [f64
     t.rrw = Vector3::from_fn(|i, _| n[i].random_walk);
 }
 
-/// Re-simulates `rec`'s run with `model`: the same sample times, encoder
-/// reads, temperatures, site and base; IMU samples from the simulator's
-/// physics with the model's sensor, noise drawn from `seed`.
-///
-/// # Errors
-/// A recording without IMU samples or with fewer than 3 encoder reads; a
-/// temperature term on a recording without temperatures; a model with a
-
 /// The table's true motion at `t` (s) from the encoder track: the encoder
 /// shows `theta + e(theta)` with `e = c cos(theta) + s sin(theta)` (rad).
 fn true_motion(track: &EncoderTrack, t: f64, c: f64, s: f64) -> Kinematics {
@@ -294,6 +286,14 @@ fn true_motion(track: &EncoderTrack, t: f64, c: f64, s: f64) -> Kinematics {
         accel: shown.accel,
     }
 }
+
+/// Re-simulates `rec`'s run with `model`: the same sample times, encoder
+/// reads, temperatures, site and base; IMU samples from the simulator's
+/// physics with the model's sensor, noise drawn from `seed`.
+///
+/// # Errors
+/// A recording without IMU samples or with fewer than 3 encoder reads; a
+/// temperature term on a recording without temperatures; a model with a
 
 /// warm-up on a recording with temperatures.
 pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Recording, TwinError> {
