@@ -294,7 +294,6 @@ fn true_motion(track: &EncoderTrack, t: f64, c: f64, s: f64) -> Kinematics {
 /// # Errors
 /// A recording without IMU samples or with fewer than 3 encoder reads; a
 /// temperature term on a recording without temperatures; a model with a
-
 /// warm-up on a recording with temperatures.
 pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Recording, TwinError> {
     model.check()?;
