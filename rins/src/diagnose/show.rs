@@ -25,7 +25,7 @@ fn eng_param(name: &str, v: f64) -> String {
         format!("{:.3} deg/h", v * deg * 3600.0)
     } else if name.ends_with("_m") {
         format!("{:.2} mm", v * 1e3)
-    } else if name.ends_with("_s") && name.starts_with("time_offset") {
+    } else if name.ends_with("_s") && name.contains("time_offset") {
         format!("{:.3} ms", v * 1e3)
     } else if name.ends_with("radps_per_mps2") {
         format!("{:.4} deg/h per m/s^2", v * deg * 3600.0)
