@@ -22,14 +22,16 @@
 //! non-overlapping one), 68.3 % two-sided, chi-square quantiles by
 //! Wilson-Hilferty (good to ~1 % of the bound for edf >= 3).
 //!
-//! Noise fit (IEEE Std 952-1997 Annex C): `sigma^2(tau) = N^2 / tau +
-//! (2 ln 2 / pi) B^2 + K^2 tau / 3`, fitted to the curve by least squares on
-//! `sigma^2` weighted by its variance `2 sigma^4 / edf` (edf capped at
-//! [`FIT_EDF_CAP`] so every octave counts), each coefficient
-//! kept non-negative (every subset of the three terms is tried). `N` is the
-//! white-noise density (ARW in rad/sqrt(s), VRW in m/s/sqrt(s)), `B` the
-//! bias-instability coefficient (the Allan floor is `0.664 B`), `K` the
-//! rate random walk.
+//! Noise fit (IEEE Std 952-1997 Annex C, with a Gauss-Markov bias):
+//! `sigma^2(tau) = N^2 / tau + (2 ln 2 / pi) F^2 + K^2 tau / 3 + s^2
+//! gm(tau, T)`, fitted to the curve by least squares on `sigma^2` weighted
+//! by its variance `2 sigma^4 / edf` (edf capped at [`FIT_EDF_CAP`] so every
+//! octave counts), each coefficient kept non-negative (every subset of the
+//! four terms is tried, `T` on a grid, the subset by AIC). `N` is the
+//! white-noise density (ARW in rad/sqrt(s), VRW in m/s/sqrt(s)), `F` the
+//! flicker coefficient, `K` the rate random walk, `s` and `T` a
+//! Gauss-Markov bias ([`gm_avar`]). The bias instability is defined once:
+//! the fitted curve's floor over 0.664 ([`FLOOR_OVER_B`]).
 
 use crate::real::Real;
 
@@ -181,84 +183,203 @@ pub fn octave_factors(n: usize, min_terms: usize) -> impl Iterator<Item = usize>
 /// The largest edf a point weighs with in [`fit_noise`].
 pub const FIT_EDF_CAP: f64 = 50.0;
 
-/// The three-term noise model fitted to an Allan curve.
+/// The noise model fitted to an Allan curve.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct NoiseFit {
     /// White-noise density N, unit x sqrt(s) (ARW rad/sqrt(s), VRW m/s/sqrt(s)).
     pub white: f64,
-    /// Bias-instability coefficient B, unit (Allan floor 0.664 B).
-    pub bias_instability: f64,
+    /// 1-sigma of `white` (same unit), from the fit.
+    pub white_sigma: f64,
+    /// Flicker coefficient, unit (its Allan floor is `0.664` times it).
+    pub flicker: f64,
     /// Rate random walk K, unit / sqrt(s).
     pub rrw: f64,
+    /// Gauss-Markov bias: its standard deviation, unit (0: none fitted).
+    pub gm_sigma: f64,
+    /// Gauss-Markov correlation time, s (0 when `gm_sigma` is 0).
+    pub gm_tau_s: f64,
+    /// Bias instability, unit: the fitted curve's floor (its minimum over
+    /// the points' taus) over 0.664 (IEEE Std 952: the floor of a flicker
+    /// bias is 0.664 B), the one definition every tool reports.
+    pub bias_instability: f64,
+}
+
+/// `(2 ln 2 / pi)`: a flicker coefficient's Allan variance.
+const FLICKER_AVAR: f64 = 2.0 * core::f64::consts::LN_2 / core::f64::consts::PI;
+
+/// The Allan floor of a flicker bias over its coefficient (IEEE Std 952).
+pub const FLOOR_OVER_B: f64 = 0.664;
+
+/// Allan variance of a unit-variance first-order Gauss-Markov bias with
+/// correlation time `t` (s) at `tau` (s): `(t / tau)^2 (2 tau / t - 3 + 4
+/// e^(-tau/t) - e^(-2 tau/t))` (a rate random walk `2 tau / (3 t)` for
+/// `tau << t`, white noise `2 t / tau` for `tau >> t`).
+pub fn gm_avar(tau: f64, t: f64) -> f64 {
+    let x = tau / t;
+    if x < 1e-3 {
+        // The series: the closed form cancels to rounding there.
+        return 2.0 * x / 3.0 - x * x / 6.0;
+    }
+    (2.0 * x - 3.0 + 4.0 * libm::exp(-x) - libm::exp(-2.0 * x)) / (x * x)
 }
 
 impl NoiseFit {
     /// The model's ADEV at `tau_s`.
     pub fn adev_at(&self, tau_s: f64) -> f64 {
-        let b2 = 2.0 * core::f64::consts::LN_2 / core::f64::consts::PI;
+        let gm = if self.gm_tau_s > 0.0 {
+            self.gm_sigma * self.gm_sigma * gm_avar(tau_s, self.gm_tau_s)
+        } else {
+            0.0
+        };
         libm::sqrt(
             self.white * self.white / tau_s
-                + b2 * self.bias_instability * self.bias_instability
-                + self.rrw * self.rrw * tau_s / 3.0,
+                + FLICKER_AVAR * self.flicker * self.flicker
+                + self.rrw * self.rrw * tau_s / 3.0
+                + gm,
         )
     }
 }
 
-/// Fits [`NoiseFit`] to `points` (weighted, non-negative; see module docs).
-/// `None` with no usable point.
-pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
-    // Relative weight of a point: its edf, capped so the thousands of
-    // degrees of freedom at short tau cannot drown the floor and the slope
-    // at long tau (the model is only an approximation of a real sensor).
-    let weight = |p: &AdevPoint| p.edf.clamp(1.0, FIT_EDF_CAP);
-    use nalgebra::{Matrix3, Vector3};
-    let b2 = 2.0 * core::f64::consts::LN_2 / core::f64::consts::PI;
-    let basis = |tau: f64| Vector3::new(1.0 / tau, b2, tau / 3.0);
-    let usable = || {
-        points
-            .iter()
-            .filter(|p| p.adev > 0.0 && p.adev.is_finite() && p.tau_s > 0.0)
+/// Correlation times tried for a Gauss-Markov bias, per decade of tau.
+const GM_PER_DECADE: usize = 8;
+
+/// One weighted least-squares fit of the terms in `on` (white, flicker, rate
+/// random walk, Gauss-Markov with correlation time `t`): the coefficients
+/// (variances), the fit's cost, and the white variance's variance.
+fn fit_terms(points: &[AdevPoint], on: [bool; 4], t: f64) -> Option<([f64; 4], f64, f64)> {
+    // Weights from the model, not from the measured points (iteratively
+    // reweighted): weights 1 / measured^2 favour the points that scattered
+    // low and bias the fit down (by 4 % on an hour of white noise).
+    let mut fit = fit_weighted(points, on, t, None)?;
+    for _ in 0..3 {
+        fit = fit_weighted(points, on, t, Some(fit.0))?;
+    }
+    Some(fit)
+}
+
+/// One pass of [`fit_terms`], weighting each point by the variance of the
+/// model `prior` (coefficients as returned) or, without one, of the point.
+fn fit_weighted(
+    points: &[AdevPoint],
+    on: [bool; 4],
+    t: f64,
+    prior: Option<[f64; 4]>,
+) -> Option<([f64; 4], f64, f64)> {
+    use nalgebra::{Matrix4, Vector4};
+    let [o0, o1, o2, o3] = on.map(|x| f64::from(u8::from(x)));
+    let mask = Vector4::new(o0, o1, o2, o3);
+    let basis = |tau: f64| {
+        Vector4::new(1.0 / tau, FLICKER_AVAR, tau / 3.0, gm_avar(tau, t)).component_mul(&mask)
     };
-    usable().next()?;
-    let mut best: Option<(f64, Vector3<f64>)> = None;
-    for mask in 1u8..8 {
-        // Active terms as a 0/1 vector; inactive ones get a unit diagonal.
-        let on = Vector3::new(
-            f64::from(mask & 1),
-            f64::from((mask >> 1) & 1),
-            f64::from((mask >> 2) & 1),
-        );
-        let mut a = Matrix3::from_diagonal(&on.map(|x| 1.0 - x));
-        let mut rhs = Vector3::zeros();
-        for p in usable() {
+    // Weights: 1/var(sigma^2) = edf / (2 sigma^4), edf capped so the
+    // thousands of degrees of freedom at short tau cannot drown the floor
+    // and the slope at long tau (the model only approximates a sensor);
+    // the capped weights' covariance is the sandwich with the true ones.
+    let mut a = Matrix4::from_diagonal(&mask.map(|x| 1.0 - x));
+    let mut meat = Matrix4::zeros();
+    let mut rhs = Vector4::zeros();
+    for p in points {
+        let v = p.adev * p.adev;
+        let f = basis(p.tau_s);
+        let s2 = prior
+            .map(|c| f.dot(&Vector4::from(c)))
+            .filter(|m| *m > 0.0)
+            .unwrap_or(v);
+        let w = p.edf.clamp(1.0, FIT_EDF_CAP) / (s2 * s2);
+        let w_true = p.edf.max(1.0) / (2.0 * s2 * s2);
+        a += f * f.transpose() * w;
+        meat += f * f.transpose() * (w * w / w_true);
+        rhs += f * (w * v);
+    }
+    let inv = a.try_inverse()?;
+    let x = inv * rhs;
+    if x.iter().any(|c| *c < 0.0 || !c.is_finite()) {
+        return None;
+    }
+    let cost: f64 = points
+        .iter()
+        .map(|p| {
             let v = p.adev * p.adev;
-            let w = weight(p) / (v * v);
-            let f = basis(p.tau_s).component_mul(&on);
-            a += f * f.transpose() * w;
-            rhs += f * (w * v);
-        }
-        let Some(x) = a.cholesky().map(|c| c.solve(&rhs)) else {
-            continue;
-        };
-        if x.iter().any(|c| *c < 0.0 || !c.is_finite()) {
-            continue;
-        }
-        let cost: f64 = usable()
-            .map(|p| {
-                let v = p.adev * p.adev;
-                let model = basis(p.tau_s).dot(&x);
-                weight(p) * (model - v) * (model - v) / (v * v)
-            })
-            .sum();
-        if best.is_none_or(|(c, _)| cost < c) {
-            best = Some((cost, x));
+            let model = basis(p.tau_s).dot(&x);
+            let s2 = if model > 0.0 { model } else { v };
+            p.edf.clamp(1.0, FIT_EDF_CAP) * (model - v) * (model - v) / (s2 * s2)
+        })
+        .sum();
+    let cov = inv * meat * inv;
+    Some((x.into(), cost, cov.m11.max(0.0)))
+}
+
+/// Fits [`NoiseFit`] to `points` (weighted, non-negative; see module docs):
+/// every subset of white noise, flicker, rate random walk and a
+/// Gauss-Markov bias (its correlation time on a grid over the points'
+/// taus), the subset chosen by AIC (a Gauss-Markov bias that the three-term
+/// model cannot hold would otherwise be read as less white noise). `None`
+/// with no usable point.
+pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
+    let mut usable = [AdevPoint::default(); 64];
+    let mut n = 0;
+    for p in points
+        .iter()
+        .filter(|p| p.adev > 0.0 && p.adev.is_finite() && p.tau_s > 0.0)
+    {
+        if let Some(slot) = usable.get_mut(n) {
+            *slot = *p;
+            n += 1;
         }
     }
-    best.map(|(_, x)| NoiseFit {
-        white: libm::sqrt(x.x),
-        bias_instability: libm::sqrt(x.y),
-        rrw: libm::sqrt(x.z),
-    })
+    if n == 0 {
+        return None;
+    }
+    let pts = usable.get(..n)?;
+    let (lo, hi) = pts.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| {
+        (l.min(p.tau_s), h.max(p.tau_s))
+    });
+    let decades = libm::log10(hi / lo).max(0.0) + 1.0;
+    let steps = (decades * GM_PER_DECADE as f64) as usize + 1;
+    let mut best: Option<(f64, [f64; 4], f64, f64)> = None;
+    for mask in 1u8..16 {
+        let on = [mask & 1 != 0, mask & 2 != 0, mask & 4 != 0, mask & 8 != 0];
+        let k = on.iter().filter(|x| **x).count() + usize::from(on[3]);
+        let grid = if on[3] { steps } else { 1 };
+        for g in 0..grid {
+            // From the shortest tau to ten times the longest.
+            let t = lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
+            let Some((x, cost, var_w)) = fit_terms(pts, on, t) else {
+                continue;
+            };
+            // AIC with the capped-edf chi-square (cost / 2).
+            let aic = 0.5 * cost + 2.0 * k as f64;
+            if best.is_none_or(|b| aic < b.0) {
+                best = Some((aic, x, if on[3] { t } else { 0.0 }, var_w));
+            }
+        }
+    }
+    let (_, [v_white, v_flicker, v_rrw, v_gm], t, var_w) = best?;
+    let white = libm::sqrt(v_white);
+    let mut fit = NoiseFit {
+        white,
+        // d(N) = d(N^2) / (2 N); at N = 0 the bound's own scale.
+        white_sigma: if white > 0.0 {
+            libm::sqrt(var_w) / (2.0 * white)
+        } else {
+            libm::sqrt(libm::sqrt(var_w))
+        },
+        flicker: libm::sqrt(v_flicker),
+        rrw: libm::sqrt(v_rrw),
+        gm_sigma: libm::sqrt(v_gm),
+        gm_tau_s: t,
+        bias_instability: 0.0,
+    };
+    let floor = pts
+        .iter()
+        .map(|p| fit.adev_at(p.tau_s))
+        .fold(f64::INFINITY, f64::min);
+    fit.bias_instability = if floor.is_finite() {
+        floor / FLOOR_OVER_B
+    } else {
+        0.0
+    };
+    Some(fit)
 }
 
 #[cfg(test)]

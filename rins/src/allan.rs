@@ -29,22 +29,28 @@ pub struct ChannelAllan {
     pub fit: NoiseFit,
 }
 
-/// Computes all six channels of `rec`.
+/// The Allan curve of one channel's samples `y` (period `tau0_s`) and its
+/// noise fit: the one noise estimator `rins allan` and diagnose both print.
+pub fn fit_channel(y: &[f64], tau0_s: f64) -> (Vec<AdevPoint>, NoiseFit) {
+    let points: Vec<AdevPoint> = octave_factors(y.len(), MIN_TERMS)
+        .filter_map(|m| oadev(y, tau0_s, m))
+        .collect();
+    let fitted: Vec<AdevPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| p.m >= FIT_MIN_M)
+        .collect();
+    let fit = fit_noise(if fitted.len() >= 3 { &fitted } else { &points }).unwrap_or_default();
+    (points, fit)
+}
+
+/// Computes all six channels of `rec` (the accelerometers of a gyro-only
+/// recording are left out).
 pub fn compute(rec: &Recording) -> Vec<ChannelAllan> {
-    let tau0 = 1.0 / rec.meta.imu_rate_hz;
-    (0..6)
+    let tau0 = rec.dt_s();
+    (0..if rec.gyro_only { 3 } else { 6 })
         .map(|c| {
-            let y = rec.channel(c);
-            let points: Vec<AdevPoint> = octave_factors(y.len(), MIN_TERMS)
-                .filter_map(|m| oadev(&y, tau0, m))
-                .collect();
-            let fitted: Vec<AdevPoint> = points
-                .iter()
-                .copied()
-                .filter(|p| p.m >= FIT_MIN_M)
-                .collect();
-            let fit =
-                fit_noise(if fitted.len() >= 3 { &fitted } else { &points }).unwrap_or_default();
+            let (points, fit) = fit_channel(&rec.channel(c), tau0);
             ChannelAllan {
                 name: CHANNELS[c],
                 points,
@@ -53,6 +59,45 @@ pub fn compute(rec: &Recording) -> Vec<ChannelAllan> {
         })
         .collect()
 }
+
+/// One channel's noise terms as a person reads them, in the book's units
+/// (gyro: deg/sqrt(h), deg/h; accelerometer: ug/sqrt(Hz), ug).
+pub fn describe(channel: usize, f: &NoiseFit) -> String {
+    let gyro = channel < 3;
+    let (dens, level) = if gyro {
+        (
+            180.0 / core::f64::consts::PI * 60.0,
+            180.0 / core::f64::consts::PI * 3600.0,
+        )
+    } else {
+        (1e6 / G0, 1e6 / G0)
+    };
+    let (du, lu) = if gyro {
+        ("deg/sqrt(h)", "deg/h")
+    } else {
+        ("ug/sqrt(Hz)", "ug")
+    };
+    let mut s = format!(
+        "white {:.3} +- {:.3} {du}, bias instability {:.2} {lu}",
+        f.white * dens,
+        f.white_sigma * dens,
+        f.bias_instability * level
+    );
+    if f.gm_sigma > 0.0 {
+        s += &format!(
+            ", Gauss-Markov {:.2} {lu} over {:.0} s",
+            f.gm_sigma * level,
+            f.gm_tau_s
+        );
+    }
+    if f.rrw > 0.0 {
+        s += &format!(", rate random walk {:.3e} {lu}/sqrt(s)", f.rrw * level);
+    }
+    s
+}
+
+/// Standard gravity, m/s^2 (the unit g of ug).
+const G0: f64 = 9.806_65;
 
 /// The `rins-allan/1` JSON.
 pub fn to_json(chs: &[ChannelAllan]) -> Value {
@@ -66,8 +111,11 @@ pub fn to_json(chs: &[ChannelAllan]) -> Value {
                 "adev_lo": c.points.iter().map(|p| p.lo).collect::<Vec<_>>(),
                 "adev_hi": c.points.iter().map(|p| p.hi).collect::<Vec<_>>(),
                 "white_noise_density": c.fit.white,
+                "white_noise_density_sigma": c.fit.white_sigma,
                 "bias_instability": c.fit.bias_instability,
                 "rate_random_walk": c.fit.rrw,
+                "gauss_markov_sigma": c.fit.gm_sigma,
+                "gauss_markov_tau_s": c.fit.gm_tau_s,
             }),
         );
     }
@@ -111,27 +159,9 @@ pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
 
 /// A text table.
 pub fn report(chs: &[ChannelAllan]) -> String {
-    let mut s = String::from(
-        "channel          white noise          bias instability     rate random walk\n",
-    );
-    for c in chs {
-        let (w, b, k) = if c.name.starts_with("gyro") {
-            (
-                format!("{:.3} deg/sqrt(h)", c.fit.white.to_degrees() * 60.0),
-                format!("{:.2} deg/h", c.fit.bias_instability.to_degrees() * 3600.0),
-                format!(
-                    "{:.3} deg/h/sqrt(h)",
-                    c.fit.rrw.to_degrees() * 3600.0 * 60.0
-                ),
-            )
-        } else {
-            (
-                format!("{:.4} m/s/sqrt(h)", c.fit.white * 60.0),
-                format!("{:.1} ug", c.fit.bias_instability / 9.80665e-6),
-                format!("{:.3e} m/s^2/sqrt(s)", c.fit.rrw),
-            )
-        };
-        s += &format!("{:<16} {w:<20} {b:<20} {k}\n", c.name);
+    let mut s = String::new();
+    for (ch, c) in chs.iter().enumerate() {
+        s += &format!("{:<14} {}\n", c.name, describe(ch, &c.fit));
     }
     s
 }

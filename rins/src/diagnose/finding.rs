@@ -151,6 +151,9 @@ pub struct Details {
     pub noise: Vec<Noise>,
     /// Effects not excited by this run, with the experiment that would.
     pub not_observable: Vec<(EffectId, String)>,
+    /// The noise terms of the final residual per channel, from the one
+    /// noise estimator (`rins allan`'s Allan fit): what the report prints.
+    pub allan: Vec<core_nav::allan::NoiseFit>,
     /// Effects the recording's columns or table source rule out, and why.
     pub ruled_out: Vec<(EffectId, String)>,
     /// The recording's segments between gaps: first and last sample time

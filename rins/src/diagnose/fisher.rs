@@ -14,12 +14,7 @@ use recording::Recording;
 /// the fitted (white, bias instability) and the ratio of the long-tau ADEV
 /// to the white-noise extrapolation.
 pub fn allan_excess(res: &[f64], tau0: f64) -> (f64, f64, f64) {
-    use core_nav::allan::{fit_noise, oadev, octave_factors};
-    let pts: Vec<_> = octave_factors(res.len(), 20)
-        .filter_map(|m| oadev(res, tau0, m))
-        .filter(|p| p.m >= 10)
-        .collect();
-    let fit = fit_noise(&pts).unwrap_or_default();
+    let (pts, fit) = crate::allan::fit_channel(res, tau0);
     let last = pts.iter().rev().find(|p| p.terms >= 20);
     let ratio = last.map_or(1.0, |p| p.adev / (fit.white / p.tau_s.sqrt()).max(1e-300));
     (fit.white, fit.bias_instability, ratio)

@@ -7,8 +7,7 @@ use super::effects::Kind;
 use super::noise::{self, Noise};
 use super::select::{params_of, Judged, Selection};
 use super::{
-    allan_excess, dt_of, locate, Details, Diagnosis, Finding, FitFigures, Parameter, Prediction,
-    BIC_MARGIN,
+    dt_of, locate, Details, Diagnosis, Finding, FitFigures, Parameter, Prediction, BIC_MARGIN,
 };
 use hal_sim::catalogue::EffectId;
 
@@ -160,6 +159,12 @@ pub(super) fn report(
             .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
             .collect()
     });
+    let allan: Vec<core_nav::allan::NoiseFit> = (0..6)
+        .map(|ch| match p.recorded(ch) {
+            true => crate::allan::fit_channel(&res_after[ch], dt).1,
+            false => core_nav::allan::NoiseFit::default(),
+        })
+        .collect();
     for triad in 0..2 {
         let mut params = vec![];
         let (mut chans, mut dbic_sum, mut chi) = (vec![], 0.0, 0.0f64);
@@ -200,12 +205,15 @@ pub(super) fn report(
                 ["radps", "mps2"][triad],
                 ["rad_per_sqrt_s", "mps_per_sqrt_s"][triad],
             );
-            let (_, b_allan, _) = allan_excess(&res_after[ch], dt);
+            // The figures printed are the one noise estimator's (the Allan
+            // fit `rins allan` prints), on the final residual; the ML model
+            // above only decides and whitens.
+            let a = allan.get(ch).copied().unwrap_or_default();
             for (name, value) in [
-                (format!("bias_instability_{ax}_{unit}"), b_allan),
-                (format!("gm_sigma_{ax}_{unit}"), gm.gm_sigma()),
-                (format!("gm_tau_{ax}_s"), gm.tau_s().min(1e12)),
-                (format!("white_noise_{ax}_{wunit}"), gm.white_density()),
+                (format!("bias_instability_{ax}_{unit}"), a.bias_instability),
+                (format!("gm_sigma_{ax}_{unit}"), a.gm_sigma),
+                (format!("gm_tau_{ax}_s"), a.gm_tau_s),
+                (format!("white_noise_{ax}_{wunit}"), a.white),
             ] {
                 params.push(Parameter {
                     name,
@@ -287,6 +295,7 @@ pub(super) fn report(
             noise: noise_final,
             not_observable,
             ruled_out: super::effects::ruled_out(p),
+            allan,
             segments: recording::segments(&p.t_s, p.dt_s)
                 .iter()
                 .map(|s| {

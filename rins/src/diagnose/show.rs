@@ -74,42 +74,21 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         );
     }
     if !det.ruled_out.is_empty() {
-        let _ = writeln!(
-            o,
-            "
-ruled out by the recording itself:"
-        );
+        let _ = writeln!(o, "\nruled out by the recording itself:");
         for (id, why) in &det.ruled_out {
             let _ = writeln!(o, "  {id}: {why}");
         }
     }
     let _ = writeln!(
         o,
-        "\nnoise model of the final residual (white + Gauss-Markov, ML):"
+        "\nnoise of the final residual (the Allan fit `rins allan` prints; its Gauss-Markov whitening model checked by Ljung-Box):"
     );
-    for (ch, n) in det.noise.iter().enumerate() {
+    for (ch, name) in CHANNELS.iter().enumerate() {
         if ch >= 3 && !det.accel_recorded {
-            let _ = writeln!(o, "  {:<14} not recorded", CHANNELS.get(ch).unwrap_or(&""));
+            let _ = writeln!(o, "  {name:<14} not recorded");
             continue;
         }
-        let (s, u) = eng(ch);
-        let white = if ch < 3 {
-            format!(
-                "{:.3} deg/sqrt(h)",
-                n.white_density() * 180.0 / core::f64::consts::PI * 60.0
-            )
-        } else {
-            format!("{:.1} ug/sqrt(Hz)", n.white_density() * 1e6 / 9.806_65)
-        };
-        let gm = if n.lambda > 0.0 {
-            format!(
-                "wander {:.2} {u}, tau {:.0} s",
-                n.gm_sigma() * s,
-                n.tau_s().min(1e9)
-            )
-        } else {
-            "no wander".into()
-        };
+        let a = det.allan.get(ch).copied().unwrap_or_default();
         let (q, lags) = det.whiteness.get(ch).copied().unwrap_or((0.0, 20));
         // Q is chi^2 with `lags` degrees of freedom when white: beyond 5
         // sigma the model leaves structure in this channel.
@@ -121,8 +100,8 @@ ruled out by the recording itself:"
         };
         let _ = writeln!(
             o,
-            "  {:<14} white {white}, {gm}; whitened Ljung-Box Q({lags}) = {q:.0} ({verdict}; white is {lags} +- {sd:.0})",
-            CHANNELS[ch],
+            "  {name:<14} {}; whitened Q({lags}) = {q:.0} ({verdict}; white is {lags} +- {sd:.0})",
+            crate::allan::describe(ch, &a),
         );
     }
     let _ = writeln!(o, "\nwhere the nominal residual is (rms, deg/h and ug):");
