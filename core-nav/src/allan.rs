@@ -342,8 +342,10 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
         let k = on.iter().filter(|x| **x).count() + usize::from(on[3]);
         let grid = if on[3] { steps } else { 1 };
         for g in 0..grid {
-            // From the shortest tau to ten times the longest.
-            let t = lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
+            // From three times the shortest tau (shorter, a Gauss-Markov
+            // bias is white noise by another name over the points) to ten
+            // times the longest.
+            let t = 3.0 * lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
             let Some((x, cost, var_w)) = fit_terms(pts, on, t) else {
                 continue;
             };

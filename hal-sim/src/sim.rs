@@ -274,6 +274,12 @@ pub const EFFECTS: &[Effect] = &[
         help: "accelerometer K2, all axes",
         apply: |c, v| c.imu.accel.k2 = v,
     },
+    Effect {
+        name: EffectId::TableAngleHarmonic.as_str(),
+        unit: "rad",
+        help: "the sensor's mount rocking with the table angle once per revolution (a bent shaft): amplitude of the small rotation",
+        apply: |c, v| c.geometry.wobble_harmonics[0] = [v, 0.0, 0.0, v],
+    },
     // Other terms of the error model.
     Effect {
         name: "accel_time_offset",

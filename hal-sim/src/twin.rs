@@ -26,6 +26,10 @@ fn one() -> f64 {
     1.0
 }
 
+fn is_zero_wobble(v: &[[f64; 4]; 2]) -> bool {
+    v.iter().flatten().all(|x| *x == 0.0)
+}
+
 fn is_zero3(v: &[f64; 3]) -> bool {
     v.iter().all(|x| *x == 0.0)
 }
@@ -118,6 +122,11 @@ pub struct SimModel {
     /// (a tilted axis or a base off level).
     #[serde(default, skip_serializing_if = "is_zero3")]
     pub tilt_rad: [f64; 3],
+    /// The sensor's mount wobbling with the table angle, rad:
+    /// `world::Geometry::wobble_harmonics` (per harmonic 1x, 2x: `[a, b, c,
+    /// d]`, cos and sin on the axis's first normal, then its second).
+    #[serde(default, skip_serializing_if = "is_zero_wobble")]
+    pub wobble_harmonics_rad: [[f64; 4]; 2],
     /// IMU samples this late relative to their stamps (and the encoder), s:
     /// the gyros', and the accelerometers' unless `accel_time_offset_s`
     /// says otherwise.
@@ -148,6 +157,7 @@ impl Default for SimModel {
             g_sens_radps_per_mps2: [[0.0; 3]; 3],
             lever_arm_m: [0.0; 3],
             tilt_rad: [0.0; 3],
+            wobble_harmonics_rad: [[0.0; 4]; 2],
             time_offset_s: 0.0,
             accel_time_offset_s: None,
             encoder_error_rad: [0.0; 2],
@@ -215,6 +225,7 @@ impl SimModel {
         let mut all: Vec<f64> = vec![self.earth_rate_scale, self.time_offset_s, accel_dt];
         all.extend(self.lever_arm_m);
         all.extend(self.tilt_rad);
+        all.extend(self.wobble_harmonics_rad.iter().flatten());
         all.extend(self.encoder_error_rad);
         all.extend(self.g_sens_radps_per_mps2.iter().flatten());
         for t in [&self.gyro, &self.accel] {
@@ -333,6 +344,7 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
             axis: m.axis,
             axis_tilt: tilt,
             wobble: tilt,
+            wobble_harmonics: model.wobble_harmonics_rad,
             lever_arm_s: Vector3::from(model.lever_arm_m),
         },
         bump: None,

@@ -60,6 +60,12 @@ pub struct Geometry {
     pub axis_tilt: Vector3<f64>,
     /// Fixed small rotation of the sensor on the platform, rad.
     pub wobble: Vector3<f64>,
+    /// The mount wobbling with the table angle (`table_angle_harmonic`): a
+    /// small rotation added to `wobble`, `delta(theta) = sum over n = 1, 2
+    /// of (a cos(n theta) + b sin(n theta)) u1 + (c cos(n theta) + d
+    /// sin(n theta)) u2`, `u1`, `u2` the normals of the axis
+    /// ([`Geometry::normals`]); `[a, b, c, d]` per harmonic, rad.
+    pub wobble_harmonics: [[f64; 4]; 2],
     /// Sensor origin from the axis, m, in `s`.
     pub lever_arm_s: Vector3<f64>,
 }
@@ -71,8 +77,35 @@ impl Geometry {
             axis,
             axis_tilt: Vector3::zeros(),
             wobble: Vector3::zeros(),
+            wobble_harmonics: [[0.0; 4]; 2],
             lever_arm_s: Vector3::zeros(),
         }
+    }
+
+    /// The axis's two normals `u1`, `u2` (`u1 x u2 = k`), in the order of
+    /// the basis axes after `k`.
+    pub fn normals(&self) -> [Vector3<f64>; 2] {
+        let k = self.axis.unit::<f64>();
+        let i = k.iamax();
+        [
+            Vector3::ith((i + 1) % 3, 1.0),
+            Vector3::ith((i + 2) % 3, 1.0),
+        ]
+    }
+
+    /// The angle-locked part of the mount's rotation at `theta`, rad, and
+    /// its derivative in `theta` (rad per rad).
+    pub fn wobble_at(&self, theta: f64) -> (Vector3<f64>, Vector3<f64>) {
+        let [u1, u2] = self.normals();
+        let mut d = Vector3::zeros();
+        let mut dd = Vector3::zeros();
+        for (n, [a, b, c, e]) in self.wobble_harmonics.iter().enumerate() {
+            let nf = (n + 1) as f64;
+            let (sn, cs) = (nf * theta).sin_cos();
+            d += u1 * (a * cs + b * sn) + u2 * (c * cs + e * sn);
+            dd += (u1 * (-a * sn + b * cs) + u2 * (-c * sn + e * cs)) * nf;
+        }
+        (d, dd)
     }
 
     /// The true axis `k_t` (same in `b` and `p`).
@@ -80,14 +113,21 @@ impl Geometry {
         Rotation3::from_scaled_axis(self.axis_tilt) * self.axis.unit::<f64>()
     }
 
-    /// `c_s_p`.
-    pub fn c_s_p(&self) -> Matrix3<f64> {
-        *Rotation3::from_scaled_axis(self.wobble).matrix()
+    /// `c_s_p` at platform angle `theta` (rad): the fixed wobble and the
+    /// angle-locked one.
+    pub fn c_s_p(&self, theta: f64) -> Matrix3<f64> {
+        *Rotation3::from_scaled_axis(self.wobble + self.wobble_at(theta).0).matrix()
     }
 
     /// `c_s_b` at platform angle `theta` (rad).
     pub fn c_s_b(&self, theta: f64) -> Matrix3<f64> {
-        Rotation3::from_scaled_axis(self.k_true() * theta).matrix() * self.c_s_p()
+        Rotation3::from_scaled_axis(self.k_true() * theta).matrix() * self.c_s_p(theta)
+    }
+
+    /// The rate of the sensor on its platform, rad/s in `s` (small
+    /// angles): the angle-locked wobble turning with the table.
+    pub fn wobble_rate(&self, k: &Kinematics) -> Vector3<f64> {
+        self.wobble_at(k.theta).1 * k.rate
     }
 }
 
@@ -134,7 +174,7 @@ impl Scene {
     ) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;
         let kt = g.k_true();
-        let c_s_p = g.c_s_p();
+        let c_s_p = g.c_s_p(k.theta);
         let c_p_s = c_s_p.transpose();
         let c_b_s = g.c_s_b(k.theta).transpose();
         let (w_bump, a_bump) = self
@@ -143,7 +183,7 @@ impl Scene {
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
         (
-            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate),
+            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate) + g.wobble_rate(k),
             c_b_s * (f_b + a_bump) + c_p_s * a_lever_p,
         )
     }
@@ -152,7 +192,7 @@ impl Scene {
     pub fn truth(&self, k: &Kinematics, t_s: f64) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;
         let kt = g.k_true();
-        let c_s_p = g.c_s_p();
+        let c_s_p = g.c_s_p(k.theta);
         let c_p_s = c_s_p.transpose();
         let c_b_s = g.c_s_b(k.theta).transpose();
         let c_n_s = c_b_s * self.c_b_n().transpose();
@@ -163,7 +203,7 @@ impl Scene {
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
         (
-            w_ideal + c_b_s * w_bump,
+            w_ideal + c_b_s * w_bump + g.wobble_rate(k),
             f_ideal + c_p_s * a_lever_p + c_b_s * a_bump,
         )
     }

@@ -56,6 +56,7 @@ pub fn scenario(id: EffectId) -> (Axis, f64) {
         EffectId::GyroGSensitivity => (Axis::Y, 2e-4),
         EffectId::AccelScaleNonlinearity => (Axis::Y, 2e-4),
         EffectId::BiasInstability => (Axis::Z, 1.0),
+        EffectId::TableAngleHarmonic => (Axis::Z, 2e-3),
     }
 }
 

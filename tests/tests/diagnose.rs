@@ -318,6 +318,9 @@ fn json_has_every_key_of_the_spec_and_only_documented_additions() {
         ".segments[].end_s",
         ".segments[].samples",
         ".segments[].start_s",
+        ".track_unfollowed",
+        ".track_unfollowed[].end_s",
+        ".track_unfollowed[].start_s",
     ];
     let missing: Vec<&String> = want.iter().filter(|k| !got.contains(k)).collect();
     assert!(missing.is_empty(), "spec keys missing: {missing:?}");

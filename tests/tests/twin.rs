@@ -27,9 +27,10 @@ fn factor(id: EffectId) -> f64 {
         EffectId::EarthRate => 14.0,
         EffectId::AxisTilt => 12.0,
         EffectId::TimeOffset => 10.0,
-        EffectId::GyroGSensitivity | EffectId::EncoderError | EffectId::AccelScaleNonlinearity => {
-            8.0
-        }
+        EffectId::GyroGSensitivity
+        | EffectId::EncoderError
+        | EffectId::AccelScaleNonlinearity
+        | EffectId::TableAngleHarmonic => 8.0,
         EffectId::LeverArm | EffectId::BiasInstability => 6.0,
         EffectId::GyroScaleNonlinearity
         | EffectId::GyroScaleAsymmetry

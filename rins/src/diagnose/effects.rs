@@ -38,6 +38,10 @@ pub enum Kind {
     Encoder,
     /// Accelerometer specific-force-squared term per axis, 1/(m/s^2).
     AccelK2,
+    /// The sensor's mount wobbling with the table angle: a small rotation
+    /// `delta(theta)` of the sensor on the platform, 1x and 2x harmonics on
+    /// the axis's two normals, rad (hal-sim's `Geometry::wobble_harmonics`).
+    Wobble,
 }
 
 /// One candidate.
@@ -127,6 +131,16 @@ impl Candidate {
             Kind::Warmup(_) => per_axis(&|a| format!("warmup_bias_{a}_radps")),
             Kind::Encoder => vec!["encoder_cos_rad".into(), "encoder_sin_rad".into()],
             Kind::AccelK2 => per_axis(&|a| format!("k2_{a}_per_mps2")),
+            Kind::Wobble => {
+                let [(_, a1), (_, a2)] = normals(&p.k);
+                (1..=2)
+                    .flat_map(|n| {
+                        [a1, a2].into_iter().flat_map(move |a| {
+                            ["cos", "sin"].map(move |f| format!("wobble_{n}x_{a}_{f}_rad"))
+                        })
+                    })
+                    .collect()
+            }
         }
     }
 
@@ -146,6 +160,7 @@ impl Candidate {
             Kind::Warmup(_) => bound::WARMUP_GYRO,
             Kind::Encoder => bound::ENCODER,
             Kind::AccelK2 => bound::ACCEL_K2,
+            Kind::Wobble => bound::TABLE_HARMONIC,
         }
     }
 
@@ -298,6 +313,57 @@ impl Candidate {
                     });
                 }
             }
+            Kind::Wobble => {
+                // Offered over whole revolutions only (as the encoder error:
+                // over part of a turn any smooth function of the angle, the
+                // reads' quantisation pattern among them, looks alike).
+                if !whole_turns(p) {
+                    return out;
+                }
+                // delta = u h(theta): the sensor turns on its platform by
+                // delta, so w_s = (I - [delta x]) theta_dot k + d delta / dt
+                // = theta_dot (k x u h + u h') and f_s = f x u h.
+                let [(u1, _), (u2, _)] = normals(&k);
+                let mut param = 0;
+                for n in 1..=2 {
+                    let nf = f64::from(n);
+                    for u in [u1, u2] {
+                        for sine in [false, true] {
+                            let h = |th: f64| {
+                                if sine {
+                                    (nf * th).sin()
+                                } else {
+                                    (nf * th).cos()
+                                }
+                            };
+                            let dh = |th: f64| {
+                                if sine {
+                                    nf * (nf * th).cos()
+                                } else {
+                                    -nf * (nf * th).sin()
+                                }
+                            };
+                            let ku = k.cross(&u);
+                            for i in 0..3 {
+                                out.push(Term {
+                                    ch: i,
+                                    param,
+                                    col: col(&|r| {
+                                        let (th, w, _) = p.theta[r];
+                                        w * (ku[i] * h(th) + u[i] * dh(th))
+                                    }),
+                                });
+                                out.push(Term {
+                                    ch: 3 + i,
+                                    param,
+                                    col: col(&|r| p.f[r].cross(&u)[i] * h(p.theta[r].0)),
+                                });
+                            }
+                            param += 1;
+                        }
+                    }
+                }
+            }
             Kind::Encoder => {
                 // A once-per-revolution error is a 1x harmonic only over a
                 // whole revolution: on a run that never turns through one,
@@ -305,13 +371,7 @@ impl Candidate {
                 // errors, the reads' own quantisation, which repeats when a
                 // reciprocating table revisits the same angles) and the
                 // run cannot tell them apart: not excited.
-                let (lo, hi) = p
-                    .theta
-                    .iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| {
-                        (l.min(t.0), h.max(t.0))
-                    });
-                if p.theta.is_empty() || hi - lo < std::f64::consts::TAU {
+                if !whole_turns(p) {
                     return out;
                 }
                 // Encoder angle error e(theta) = c cos + s sin: the rate
@@ -357,6 +417,7 @@ impl Candidate {
             Kind::Warmup(_) => "slow, an exponential settling after turn-on (no temperature recorded)",
             Kind::Encoder => "1x table revolution harmonic on the table-axis gyro, in proportion to the rate",
             Kind::AccelK2 => "accelerometers, with the square of the specific force along each axis",
+            Kind::Wobble => "1x and 2x table-angle harmonics on the gyros normal to the table axis, in proportion to the rate, and on the accelerometers",
         }
     }
 
@@ -375,6 +436,7 @@ impl Candidate {
             Kind::Warmup(_) => "the gyro bias settles after turn-on as the sensor warms up (temperature not recorded: modelled as a warm-up exponential)",
             Kind::Encoder => "the encoder angle carries an error that repeats each revolution (eccentricity, graduation): the rate taken from it is wrong once per turn",
             Kind::AccelK2 => "the accelerometer output is not linear in specific force",
+            Kind::Wobble => "the sensor's mount rocks with the table angle (a bent shaft, a bearing, a loose mount): the gyros normal to the table axis see the rocking's rate, the accelerometers gravity tilted by it, both locked to the angle",
         }
     }
 
@@ -389,8 +451,20 @@ impl Candidate {
             Kind::TimeOffset => "change the table rate (ramps, reversals)",
             Kind::TempGyro | Kind::TempAccel | Kind::Warmup(_) => "record from a cold start, with the temperature",
             Kind::Encoder => "turn the table through whole revolutions at a steady rate",
+            Kind::Wobble => "turn the table through whole revolutions at two rates, both ways",
         }
     }
+}
+
+/// Whether the table turns through at least one whole revolution.
+fn whole_turns(p: &Prediction) -> bool {
+    let (lo, hi) = p
+        .theta
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| {
+            (l.min(t.0), h.max(t.0))
+        });
+    !p.theta.is_empty() && hi - lo >= std::f64::consts::TAU
 }
 
 /// Central difference of component `i` of `v` over time `t`.
@@ -476,6 +550,7 @@ fn library_all(p: &Prediction) -> Vec<Candidate> {
         c(EffectId::TimeOffset, Kind::TimeOffset),
         c(EffectId::EncoderError, Kind::Encoder),
         c(EffectId::AccelScaleNonlinearity, Kind::AccelK2),
+        c(EffectId::TableAngleHarmonic, Kind::Wobble),
     ];
     if p.temp_recorded {
         v.push(c(EffectId::TemperatureBias, Kind::TempGyro));

@@ -159,6 +159,8 @@ pub struct Details {
     /// The recording's segments between gaps: first and last sample time
     /// (s) and samples.
     pub segments: Vec<(f64, f64, usize)>,
+    /// The table axis as a sensor axis index (0 x, 1 y, 2 z).
+    pub axis_index: usize,
     /// The nominal IMU rate, Hz (`[imu] rate_hz`).
     pub rate_hz: f64,
     /// The accelerometers were recorded (else gyro-only).
@@ -265,6 +267,11 @@ impl Diagnosis {
             .iter()
             .map(|(a, b, n)| json!({"start_s": a, "end_s": b, "samples": n}))
             .collect();
+        let unfollowed: Vec<Value> = det
+            .unfollowed
+            .iter()
+            .map(|(a, b)| json!({"start_s": a, "end_s": b}))
+            .collect();
         json!({
             "format": "rins-diagnose/1",
             "recording": self.recording,
@@ -274,6 +281,7 @@ impl Diagnosis {
             "ruled_out": ruled_out,
             "segments": segments,
             "rate_hz": det.rate_hz,
+            "track_unfollowed": unfollowed,
         })
     }
 }

@@ -276,6 +276,92 @@ fn resid_ss(x: &[DVector<f64>], y: &DVector<f64>) -> f64 {
     }
 }
 
+/// How far the table-axis gyro may sit above the cross-axis gyros (rms of
+/// the final per-sample residual) before the table is said to move between
+/// encoder reads in ways the track cannot follow: the three gyros of a MEMS
+/// triad share their noise density to within a factor of ~1.5 (datasheets
+/// give one figure for all axes); 3 leaves room for that.
+pub const UNTRACKED_RATIO: f64 = 3.0;
+
+/// Table motion between encoder reads that the prediction does not follow
+/// (a stepper's steps, cogging, a servo's wobble): the table-axis gyro's
+/// final residual against the cross axes', named with its size, the
+/// frequency where its power sits (the periodogram's peak on the longest
+/// segment) and the encoder read rate that would resolve it (2.5 times
+/// that frequency: reads that sample its cycle), with the track's own
+/// intervals it says it cannot follow.
+pub fn untracked_motion(p: &Prediction, res: &[Vec<f64>; 6]) -> Option<Unexplained> {
+    let ka = p.k.iamax();
+    let moved = p
+        .theta
+        .iter()
+        .any(|t| t.1.abs() > super::effects::MIN_RATE_RADPS);
+    let others: Vec<f64> = (0..3).filter(|c| *c != ka).map(|c| rms(&res[c])).collect();
+    let cross = others.iter().sum::<f64>() / others.len().max(1) as f64;
+    let along = rms(res.get(ka)?);
+    if !moved || along <= UNTRACKED_RATIO * cross {
+        return None;
+    }
+    let seg = recording::segments(&p.t_s, p.dt_s)
+        .into_iter()
+        .max_by_key(|s| s.len())?;
+    let z: Vec<f64> = res
+        .get(ka)?
+        .get(seg.start..seg.end)?
+        .iter()
+        .take(6000)
+        .copied()
+        .collect();
+    let nyq = 0.5 / p.dt_s;
+    let peak = (0..400)
+        .map(|i| 0.2 * (nyq / 0.2).powf(f64::from(i) / 399.0))
+        .map(|f| {
+            let (mut c, mut s) = (0.0, 0.0);
+            for (r, v) in z.iter().enumerate() {
+                let ph = std::f64::consts::TAU * f * r as f64 * p.dt_s;
+                c += v * ph.cos();
+                s += v * ph.sin();
+            }
+            (f, c * c + s * s)
+        })
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(0.0, |x| x.0);
+    let unfollowed: f64 = p.track.unfollowed().iter().map(|(a, b)| b - a).sum();
+    let span = p.t_s.last().copied().unwrap_or(0.0) - p.t_s.first().copied().unwrap_or(0.0);
+    let dps = 180.0 / std::f64::consts::PI;
+    let reads = p.track.times();
+    let enc_hz = (reads.len().saturating_sub(1)) as f64
+        / (reads.last().copied().unwrap_or(0.0) - reads.first().copied().unwrap_or(0.0)).max(1e-9);
+    let quantum_deg = recording::track::encoder_quantum(p.track.angles()) * dps;
+    // What would resolve it: reads that sample its cycle (2.5 per cycle),
+    // or, where the encoder already reads that fast, angles fine enough
+    // that the track's fits over a few reads follow it.
+    let needs = if enc_hz >= 2.5 * peak {
+        format!(
+            "the encoder already reads at {enc_hz:.0} Hz, so its angle resolution ({quantum_deg:.3} deg a count) is what the track cannot follow it through: a finer encoder would resolve it"
+        )
+    } else {
+        format!(
+            "the encoder reads at {enc_hz:.0} Hz: reads at {:.0} Hz or more would resolve it",
+            2.5 * peak
+        )
+    };
+    Some(Unexplained {
+        channels: CHANNELS.get(ka).map(|c| vec![(*c).to_string()]).unwrap_or_default(),
+        where_: format!(
+            "table motion between encoder reads that the prediction does not follow (steps, cogging, a servo's wobble): the table-axis gyro differs from the encoder's rate by {:.2} deg/s rms where the cross axes read {:.3} deg/s; its power peaks near {peak:.1} Hz (of the {:.0} Hz the samples show; faster steps alias); {needs}; the encoder track itself cannot follow {:.0} s of the {:.0} s run ({} intervals). This motion is not sensor noise: the table axis's white-noise figure above includes it",
+            along * dps,
+            cross * dps,
+            0.5 / p.dt_s,
+            unfollowed,
+            span,
+            p.track.unfollowed().len()
+        ),
+        snr: along / cross.max(1e-300),
+        may_be: None,
+    })
+}
+
 /// Mismatches left in the final residual that no effect explains: table
 /// angle harmonics and offsets tied to the motion (one direction, rate
 /// changes), each judged on the whitened block means by the same BIC margin

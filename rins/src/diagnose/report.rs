@@ -205,14 +205,17 @@ pub(super) fn report(
                 ["radps", "mps2"][triad],
                 ["rad_per_sqrt_s", "mps_per_sqrt_s"][triad],
             );
-            // The figures printed are the one noise estimator's (the Allan
-            // fit `rins allan` prints), on the final residual; the ML model
-            // above only decides and whitens.
+            // White noise and bias instability are the one noise
+            // estimator's (the Allan fit `rins allan` prints) on the final
+            // residual; the Gauss-Markov terms are the ML model's that
+            // decided this finding and whitens the fit (on a run of a few
+            // correlation times the Allan curve cannot tell a wander from
+            // flicker, the likelihood can).
             let a = allan.get(ch).copied().unwrap_or_default();
             for (name, value) in [
                 (format!("bias_instability_{ax}_{unit}"), a.bias_instability),
-                (format!("gm_sigma_{ax}_{unit}"), a.gm_sigma),
-                (format!("gm_tau_{ax}_s"), a.gm_tau_s),
+                (format!("gm_sigma_{ax}_{unit}"), gm.gm_sigma()),
+                (format!("gm_tau_{ax}_s"), gm.tau_s().min(1e12)),
                 (format!("white_noise_{ax}_{wunit}"), a.white),
             ] {
                 params.push(Parameter {
@@ -285,7 +288,8 @@ pub(super) fn report(
     }
     let locate = locate::locate(p, &res_before, dt);
     let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
-    let unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
+    let mut unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
+    unexplained.extend(locate::untracked_motion(p, &res_after));
 
     Diagnosis {
         recording: name.to_string(),
@@ -304,6 +308,7 @@ pub(super) fn report(
                 })
                 .collect(),
             rate_hz: 1.0 / p.dt_s,
+            axis_index: p.k.iamax(),
             accel_recorded: p.accel_recorded,
             locate,
             block_s,

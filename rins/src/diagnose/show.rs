@@ -67,6 +67,14 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             );
         }
     }
+    if !det.unfollowed.is_empty() {
+        let secs: f64 = det.unfollowed.iter().map(|(a, b)| b - a).sum();
+        let _ = writeln!(
+            o,
+            "  the encoder track cannot follow the table over {} intervals between reads ({secs:.1} s in all; the JSON's track_unfollowed lists them)",
+            det.unfollowed.len()
+        );
+    }
     if !det.accel_recorded {
         let _ = writeln!(
             o,

@@ -159,7 +159,7 @@ impl Diagnosis {
                 continue; // in the prediction, so in det.earth_scale
             }
             for (name, v) in params {
-                put(&mut m, name, *v);
+                put(&mut m, name, *v, self.details.axis_index);
             }
         }
         for (fi, f) in self.findings.iter().enumerate() {
@@ -185,7 +185,7 @@ impl Diagnosis {
                 continue;
             }
             for p in &f.parameters {
-                put(&mut m, &p.name, p.value);
+                put(&mut m, &p.name, p.value, self.details.axis_index);
             }
         }
         m
@@ -195,7 +195,7 @@ impl Diagnosis {
 /// Puts one diagnose parameter (its report name) into the sim model; names
 /// that are not sensor terms (the noise's, reported with a bias
 /// instability) are left to the noise model.
-fn put(m: &mut SimModel, name: &str, v: f64) {
+fn put(m: &mut SimModel, name: &str, v: f64, axis_index: usize) {
     let axis = |c: Option<char>| match c {
         Some('x') => Some(0usize),
         Some('y') => Some(1),
@@ -246,6 +246,16 @@ fn put(m: &mut SimModel, name: &str, v: f64) {
         }
     } else if name == "warmup_tau_s" {
         m.warmup.get_or_insert_with(Warmup::default).tau_s = v;
+    } else if let Some(rest) = name.strip_prefix("wobble_") {
+        // wobble_{n}x_{axis}_{cos|sin}_rad: harmonic n on the normal named
+        // by its axis (the first normal follows the table axis cyclically,
+        // as hal-sim's Geometry::normals).
+        let n = nth(rest, 0).and_then(|c| c.to_digit(10)).unwrap_or(0) as usize;
+        let normal = axis(nth(rest, 3)).map(|a| (a + 3 - axis_index) % 3);
+        let sine = usize::from(rest.contains("_sin_"));
+        if let (Some(h), Some(nrm @ 1..=2)) = (n.checked_sub(1).filter(|h| *h < 2), normal) {
+            m.wobble_harmonics_rad[h][2 * (nrm - 1) + sine] += v;
+        }
     } else if name == "encoder_cos_rad" {
         add(&mut m.encoder_error_rad[0]);
     } else if name == "encoder_sin_rad" {
@@ -439,6 +449,15 @@ fn strip(acc: &SimModel, without: &SimModel, full: &SimModel) -> SimModel {
     }
     m.lever_arm_m = pick3(acc.lever_arm_m, without.lever_arm_m, full.lever_arm_m);
     m.tilt_rad = pick3(acc.tilt_rad, without.tilt_rad, full.tilt_rad);
+    for h in 0..2 {
+        for i in 0..4 {
+            m.wobble_harmonics_rad[h][i] = pick(
+                acc.wobble_harmonics_rad[h][i],
+                without.wobble_harmonics_rad[h][i],
+                full.wobble_harmonics_rad[h][i],
+            );
+        }
+    }
     m.encoder_error_rad = std::array::from_fn(|i| {
         pick(
             acc.encoder_error_rad[i],
