@@ -338,7 +338,7 @@ pub fn untracked_motion(p: &Prediction, res: &[Vec<f64>; 6]) -> Option<Unexplain
     // that the track's fits over a few reads follow it.
     let needs = if enc_hz >= 2.5 * peak {
         format!(
-            "the encoder already reads at {enc_hz:.0} Hz, so its angle resolution ({quantum_deg:.3} deg a count) is what the track cannot follow it through: a finer encoder would resolve it"
+            "the encoder already reads at {enc_hz:.0} Hz, so the angles as recorded (a step of {quantum_deg:.3} deg at the finest) and the track's fits over eight reads are what cannot follow it: a finer encoder, or the motor's own step count, would resolve it"
         )
     } else {
         format!(
