@@ -15,11 +15,9 @@ pub mod nav;
 pub mod outages;
 pub mod plot;
 pub mod qemu_replay;
-pub mod realnoise;
 pub mod record;
 pub mod report;
 pub mod reproduce;
-pub mod study;
 
 /// A progress bar for a job measured in fractions (hidden when not a terminal).
 pub fn progress_bar(what: &str) -> indicatif::ProgressBar {
@@ -32,3 +30,5 @@ pub fn progress_bar(what: &str) -> indicatif::ProgressBar {
     pb.set_message(what.to_string());
     pb
 }
+
+pub use ::diagnose::{realnoise, study};

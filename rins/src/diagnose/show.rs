@@ -2,8 +2,8 @@
 //! (residuals before / after, the table-angle harmonic spectrum, Allan
 //! deviation before / after).
 
-use super::{Blocks, Diagnosis, CHANNELS};
 use crate::plot::{Chart, PlotError, Series};
+use ::diagnose::{Blocks, Diagnosis, CHANNELS};
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -235,7 +235,7 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
 /// `T`): `2 sigma^2 T / tau [1 - T / (2 tau) (3 - 4 e^(-tau/T) + e^(-2 tau/T))]`,
 /// which rises as `tau` (rate random walk) well below `T` and falls as white
 /// noise well above it.
-pub fn model_adev(n: &super::noise::Noise, tau: f64) -> f64 {
+pub fn model_adev(n: &::diagnose::noise::Noise, tau: f64) -> f64 {
     let white = n.white_density().powi(2) / tau;
     let sig2 = n.gm_sigma().powi(2);
     let tc = n.tau_s();

@@ -2,8 +2,8 @@
 //! motion as text, the Allan deviation of the recording minus each twin as
 //! plots.
 
-use super::{TwinReport, CLOSENESS_BLOCK_S, GOOD_RATIO, TWIN_SEEDS};
 use crate::diagnose::CHANNELS;
+use ::diagnose::twin::{TwinReport, CLOSENESS_BLOCK_S, GOOD_RATIO, TWIN_SEEDS};
 
 /// The twin report as text.
 pub fn text(r: &TwinReport) -> String {

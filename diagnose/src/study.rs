@@ -3,7 +3,7 @@
 //! For each sensor grade (`nav440` to `mtig`) and each effect id, recordings
 //! with the effect hidden at multiples of its minimum detectable effect
 //! (MDE: the magnitude the detection rule catches half the time, from the
-//! Fisher information of the run, [`crate::diagnose::fisher()`]), many seeds
+//! Fisher information of the run, [`crate::fisher()`]), many seeds
 //! per cell, plus null recordings (background only). The background is
 //! realistic: the grade's nominal errors (bias, scale, misalignment), white
 //! noise, the gyro bias instability, output quantisation, the warm-up (its
@@ -21,9 +21,9 @@
 //! background without it, at multiples of the grade's datasheet value (its
 //! test is a likelihood ratio, not a regression: no Fisher MDE).
 
-use crate::diagnose::DiagnoseError;
-use crate::diagnose::{fisher, lambda_50, run as diagnose_run, Options};
 use crate::realnoise::RealNoise;
+use crate::DiagnoseError;
+use crate::{fisher, lambda_50, run as diagnose_run, Options};
 use core_nav::earth::EARTH_RATE_RADPS;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;

@@ -161,7 +161,7 @@ pub(super) fn report(
     });
     let allan: Vec<core_nav::allan::NoiseFit> = (0..6)
         .map(|ch| match p.recorded(ch) {
-            true => crate::allan::fit_channel(&res_after[ch], dt).1,
+            true => crate::noise_terms::fit_channel(&res_after[ch], dt).1,
             false => core_nav::allan::NoiseFit::default(),
         })
         .collect();

@@ -10,8 +10,8 @@
 //! never copied). The Xsens and Ferraris sessions' still stretches (52 s
 //! and a few seconds) are too short for a whole run and are not used.
 
-use anyhow::{bail, Context, Result};
 use recording::Recording;
+use std::fmt;
 use std::path::Path;
 
 /// Standard gravity, m/s^2 (the ADIS16405 recording is in g).
@@ -40,6 +40,25 @@ pub struct Draw {
     pub signs: u8,
 }
 
+/// A real recording that cannot serve as a background, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RealNoiseError(pub String);
+
+impl fmt::Display for RealNoiseError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for RealNoiseError {}
+
+type Result<T> = std::result::Result<T, RealNoiseError>;
+
+/// `Err(RealNoiseError(format!(...)))`.
+macro_rules! bail {
+    ($($arg:tt)*) => { return Err(RealNoiseError(format!($($arg)*))) };
+}
+
 const PERMS: [[usize; 3]; 6] = [
     [0, 1, 2],
     [1, 2, 0],
@@ -56,7 +75,8 @@ impl RealNoise {
     /// # Errors
     /// The file cannot be read or is not whole rows of six f32.
     pub fn adis16405(path: &Path) -> Result<Self> {
-        let raw = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+        let raw = std::fs::read(path)
+            .map_err(|e| RealNoiseError(format!("reading {}: {e}", path.display())))?;
         if raw.len() % 24 != 0 || raw.is_empty() {
             bail!(
                 "{}: {} bytes is not whole rows of six little-endian f32",

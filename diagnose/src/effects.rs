@@ -314,10 +314,12 @@ impl Candidate {
                 }
             }
             Kind::Wobble => {
-                // Offered over whole revolutions only (as the encoder error:
-                // over part of a turn any smooth function of the angle, the
-                // reads' quantisation pattern among them, looks alike).
-                if !whole_turns(p) {
+                // Offered over half a revolution or more: its gyro part is
+                // on the axes normal to the table's, where the encoder's
+                // quantisation does not reach, and it flips with the
+                // direction of turning (a g-sensitivity or the earth rate
+                // does not).
+                if turned(p) < std::f64::consts::PI {
                     return out;
                 }
                 // delta = u h(theta): the sensor turns on its platform by
@@ -456,15 +458,24 @@ impl Candidate {
     }
 }
 
-/// Whether the table turns through at least one whole revolution.
-fn whole_turns(p: &Prediction) -> bool {
+/// The span of table angles the run covers, rad.
+fn turned(p: &Prediction) -> f64 {
     let (lo, hi) = p
         .theta
         .iter()
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), t| {
             (l.min(t.0), h.max(t.0))
         });
-    !p.theta.is_empty() && hi - lo >= std::f64::consts::TAU
+    if p.theta.is_empty() {
+        0.0
+    } else {
+        hi - lo
+    }
+}
+
+/// Whether the table turns through at least one whole revolution.
+fn whole_turns(p: &Prediction) -> bool {
+    turned(p) >= std::f64::consts::TAU
 }
 
 /// Central difference of component `i` of `v` over time `t`.

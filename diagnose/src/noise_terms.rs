@@ -1,0 +1,71 @@
+//! The one noise estimator: a channel's Allan curve and its noise fit
+//! (core-nav's `allan`), as `rins allan` and diagnose's report both print
+//! it.
+
+use core_nav::allan::{fit_noise, oadev, octave_factors, AdevPoint, NoiseFit};
+
+/// The channel names, in the recording's column order (recording-v1).
+pub const CHANNELS: [&str; 6] = {
+    let c = recording::IMU_COLS;
+    [c[1], c[2], c[3], c[4], c[5], c[6]]
+};
+
+/// Octaves need at least this many second differences to be shown.
+pub const MIN_TERMS: usize = 10;
+/// The fit starts at this many sample periods: the first octaves are shaped
+/// by the sensor's own anti-alias / decimation filter (seen on the ADIS16405).
+pub const FIT_MIN_M: usize = 10;
+
+/// The Allan curve of one channel's samples `y` (period `tau0_s`) and its
+/// noise fit: the one noise estimator `rins allan` and diagnose both print.
+pub fn fit_channel(y: &[f64], tau0_s: f64) -> (Vec<AdevPoint>, NoiseFit) {
+    let points: Vec<AdevPoint> = octave_factors(y.len(), MIN_TERMS)
+        .filter_map(|m| oadev(y, tau0_s, m))
+        .collect();
+    let fitted: Vec<AdevPoint> = points
+        .iter()
+        .copied()
+        .filter(|p| p.m >= FIT_MIN_M)
+        .collect();
+    let fit = fit_noise(if fitted.len() >= 3 { &fitted } else { &points }).unwrap_or_default();
+    (points, fit)
+}
+
+/// One channel's noise terms as a person reads them, in the book's units
+/// (gyro: deg/sqrt(h), deg/h; accelerometer: ug/sqrt(Hz), ug).
+pub fn describe(channel: usize, f: &NoiseFit) -> String {
+    let gyro = channel < 3;
+    let (dens, level) = if gyro {
+        (
+            180.0 / core::f64::consts::PI * 60.0,
+            180.0 / core::f64::consts::PI * 3600.0,
+        )
+    } else {
+        (1e6 / G0, 1e6 / G0)
+    };
+    let (du, lu) = if gyro {
+        ("deg/sqrt(h)", "deg/h")
+    } else {
+        ("ug/sqrt(Hz)", "ug")
+    };
+    let mut s = format!(
+        "white {:.3} +- {:.3} {du}, bias instability {:.2} {lu}",
+        f.white * dens,
+        f.white_sigma * dens,
+        f.bias_instability * level
+    );
+    if f.gm_sigma > 0.0 {
+        s += &format!(
+            ", Gauss-Markov {:.2} {lu} over {:.0} s",
+            f.gm_sigma * level,
+            f.gm_tau_s
+        );
+    }
+    if f.rrw > 0.0 {
+        s += &format!(", rate random walk {:.3e} {lu}/sqrt(s)", f.rrw * level);
+    }
+    s
+}
+
+/// Standard gravity, m/s^2 (the unit g of ug).
+const G0: f64 = 9.806_65;
