@@ -198,6 +198,96 @@ pub fn background(g: &Grade, axis: Axis, wander: bool, seed: u64) -> SimConfig {
     c
 }
 
+/// A null with the whole sensor: grade `g`'s full error model (its
+/// rate-squared terms, asymmetry, g-sensitivity, temperature and warm-up,
+/// wandering bias), the simulator's default table (14-bit encoder, motor
+/// ripple, cogging, servo), on the study's run about `axis`. With a real
+/// background its noise and thermal drift are the real recording's.
+pub fn background_full(g: &Grade, axis: Axis, seed: u64) -> SimConfig {
+    let mut s = g.spec.clone();
+    if g.real.is_some() {
+        for t in [&mut s.gyro, &mut s.accel] {
+            t.white = 0.0;
+            t.lsb = 0.0;
+            t.bias_instability = 0.0;
+            t.rrw = 0.0;
+        }
+        s.temp.warmup_c = 0.0;
+    }
+    let mut c = background(g, axis, true, seed);
+    c.imu = s;
+    c
+}
+
+/// The runs the nulls with the whole sensor take in turn.
+pub const FULL_NULL_RUNS: usize = 3;
+
+/// Null run `k` (mod [`FULL_NULL_RUNS`]) on the background `c`: the
+/// study's own run; the README's example (`--scheme reciprocating
+/// --rate-dps 60`: one turn each way, no still start); the board's run
+/// (continuous at 30 deg/s). The last two are where the 14-bit encoder's
+/// quantisation was once fitted as physics.
+pub fn full_null_run(mut c: SimConfig, k: usize) -> SimConfig {
+    match k % FULL_NULL_RUNS {
+        1 => {
+            c.scheme = Scheme::Reciprocating {
+                rate: 60f64.to_radians(),
+                turns: 1,
+            };
+            c.static_s = 0.0;
+        }
+        2 => {
+            c.scheme = Scheme::Continuous {
+                rate: 30f64.to_radians(),
+            };
+            c.static_s = 0.0;
+        }
+        _ => {}
+    }
+    c
+}
+
+/// The profile's own figure for effect `id` (what a null with the whole
+/// sensor may name, at up to [`PROFILE_FACTOR`] times this size), in the
+/// effect's parameter unit; `None` for an effect the profile does not have.
+/// `accel` picks the accelerometer triad's figure where both have one.
+pub fn profile_figure(spec: &ImuSpec, id: EffectId, accel: bool) -> Option<f64> {
+    let t = if accel { &spec.accel } else { &spec.gyro };
+    let v = match id {
+        EffectId::GyroScaleNonlinearity => spec.gyro.k2,
+        EffectId::GyroScaleAsymmetry => spec.gyro.asymmetry,
+        EffectId::AccelScaleNonlinearity => spec.accel.k2,
+        EffectId::GyroGSensitivity => spec.g_sensitivity,
+        EffectId::TemperatureBias => t.temp_bias,
+        EffectId::TimeOffset => spec.latency_s,
+        _ => 0.0,
+    };
+    (v > 0.0).then_some(v)
+}
+
+/// How far beyond the profile's own figure a null's finding may be before it
+/// is a false alarm: the 4x (a 1-sigma figure drawn at 3 sigma
+/// is inside).
+pub const PROFILE_FACTOR: f64 = 4.0;
+
+/// The findings of a null with the whole sensor that the profile does not
+/// explain: an effect it does not have, or one beyond [`PROFILE_FACTOR`]
+/// times its figure (bias instability, the profile's noise, aside).
+pub fn beyond_profile(d: &crate::Diagnosis, spec: &ImuSpec) -> Vec<String> {
+    d.findings
+        .iter()
+        .filter(|f| f.effect != EffectId::BiasInstability)
+        .filter(|f| {
+            f.parameters.iter().filter(|p| p.sigma.is_some()).any(|p| {
+                let accel = p.name.contains("mps2");
+                profile_figure(spec, f.effect, accel)
+                    .is_none_or(|fig| p.value.abs() > PROFILE_FACTOR * fig)
+            })
+        })
+        .map(|f| f.effect.as_str().to_string())
+        .collect()
+}
+
 /// Simulates `c` for grade `g`: with a real background, the draw of `seed`
 /// from the real recording is added (and the temperature column dropped).
 ///
@@ -302,6 +392,12 @@ pub struct Study {
     pub null_strongest_p: BTreeMap<String, Vec<f64>>,
     /// Injected effect (at 2x MDE) -> first effect named ("none") -> count.
     pub confusion: BTreeMap<String, BTreeMap<String, usize>>,
+    /// Nulls with the whole sensor ([`background_full`]) per grade.
+    pub full_null_runs: BTreeMap<String, usize>,
+    /// Per grade, what those nulls named beyond the profile's own terms
+    /// ([`beyond_profile`]; "none" for a run that named nothing beyond
+    /// them) -> runs.
+    pub full_named: BTreeMap<String, BTreeMap<String, usize>>,
 }
 
 /// What a run named: effects (most significant first), look-alikes, the
@@ -373,6 +469,7 @@ pub fn mde(g: &Grade, effect: EffectId, axis: Axis, reference: f64) -> Result<Md
 enum Job {
     Cell { cell: usize, seed: u64 },
     Null { grade: usize, seed: u64 },
+    FullNull { grade: usize, seed: u64, run: usize },
 }
 
 /// Runs the study: `runs` seeds per cell, `nulls` null runs per grade
@@ -466,6 +563,11 @@ pub fn run(
                 grade: gi,
                 seed: seed + 7919 * k as u64 + 3,
             });
+            jobs.push(Job::FullNull {
+                grade: gi,
+                seed: seed + 7919 * k as u64 + 5,
+                run: k % FULL_NULL_RUNS,
+            });
         }
     }
     let next = AtomicUsize::new(0);
@@ -495,6 +597,14 @@ pub fn run(
                         record(g, &background(g, axis, true, *seed), *seed)
                             .and_then(|r| named(&r, false))
                     }
+                    Job::FullNull { grade, seed, run } => {
+                        let g = &grades[*grade];
+                        let c = full_null_run(background_full(g, Axis::Z, *seed), *run);
+                        record(g, &c, *seed).and_then(|r| {
+                            let d = diagnose_run(&r, "study", &Options::default())?;
+                            Ok((beyond_profile(&d, &g.spec), vec![], 1.0))
+                        })
+                    }
                 };
                 match out {
                     Ok(v) => {
@@ -523,6 +633,8 @@ pub fn run(
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     let mut null_runs = BTreeMap::new();
     let mut false_alarms = BTreeMap::new();
+    let mut full_null_runs: BTreeMap<String, usize> = BTreeMap::new();
+    let mut full_named: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     let mut null_p: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for (i, (found, alike, p_adj)) in results {
         match &jobs[i] {
@@ -539,6 +651,17 @@ pub fn run(
                         .or_default()
                         .entry(top)
                         .or_default() += 1;
+                }
+            }
+            Job::FullNull { grade, .. } => {
+                let g = grades[*grade].name.clone();
+                *full_null_runs.entry(g.clone()).or_insert(0) += 1;
+                let named = full_named.entry(g).or_default();
+                if found.is_empty() {
+                    *named.entry("none".into()).or_insert(0) += 1;
+                }
+                for e in found {
+                    *named.entry(e).or_insert(0) += 1;
                 }
             }
             Job::Null { grade, .. } => {
@@ -564,6 +687,8 @@ pub fn run(
         false_alarms,
         null_strongest_p: null_p,
         confusion,
+        full_null_runs,
+        full_named,
     })
 }
 
@@ -615,6 +740,23 @@ pub fn markdown(s: &Study) -> String {
             "\nfalse alarms on {nr} null runs: {fa} ({:.1} %)\n",
             100.0 * fa as f64 / nr.max(1) as f64
         );
+        if let (Some(n), Some(named)) = (s.full_null_runs.get(g), s.full_named.get(g)) {
+            let clean = named.get("none").copied().unwrap_or(0);
+            let beyond: Vec<String> = named
+                .iter()
+                .filter(|(k, _)| k.as_str() != "none")
+                .map(|(k, v)| format!("{k} {v}"))
+                .collect();
+            out += &format!(
+                "nulls with the whole sensor (the profile's own terms, 14-bit encoder, motor): {} of {n} name something beyond the profile's own terms at up to {PROFILE_FACTOR}x their size{}\n",
+                n - clean,
+                if beyond.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", beyond.join(", "))
+                }
+            );
+        }
         if let Some(ps) = s.null_strongest_p.get(g) {
             out += "confidence on the nulls (a finding at confidence 1 - alpha should turn up in at most alpha of them):";
             for a in CALIBRATION_ALPHAS {
