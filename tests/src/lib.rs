@@ -1,4 +1,6 @@
 //! Scenario tests across the rins crates live in `tests/tests/`; this library
-//! holds what they share: where their reference data is ([`data`]).
+//! holds what they share: where their reference data is ([`data`]) and the
+//! simulated runs several of them diagnose ([`runs`]).
 
 pub mod data;
+pub mod runs;

@@ -3,7 +3,6 @@
 //! no finding; the JSON has the spec's shape exactly; the ADIS16405 bench
 //! hour shows bias instability.
 
-use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, SimConfig};
@@ -14,28 +13,7 @@ use rins::diagnose::{run, Diagnosis, Model, Options};
 /// (60 deg/s, two turns each way) after a 30 s still phase, about `axis`;
 /// the default table (motor, servo, 14-bit encoder).
 fn config(axis: Axis, wander: bool, seed: u64, duration_s: f64) -> SimConfig {
-    let mut s = ImuSpec::ideal();
-    let nav = ImuSpec::nav440();
-    s.gyro.bias = nav.gyro.bias;
-    s.gyro.scale = nav.gyro.scale;
-    s.gyro.misalignment = nav.gyro.misalignment;
-    s.gyro.white = nav.gyro.white;
-    if wander {
-        s.gyro.bias_instability = nav.gyro.bias_instability;
-        s.gyro.bi_tau_s = nav.gyro.bi_tau_s;
-    }
-    s.accel.bias = nav.accel.bias;
-    s.accel.scale = nav.accel.scale;
-    s.accel.white = nav.accel.white;
-    s.temp = nav.temp;
-    let mut c = SimConfig::new(s, axis, duration_s);
-    c.scheme = Scheme::Reciprocating {
-        rate: 60f64.to_radians(),
-        turns: 2,
-    };
-    c.static_s = 30.0;
-    c.seed = seed;
-    c
+    rins_tests::runs::reduced_nav440(axis, wander, seed, duration_s)
 }
 
 fn diagnose(c: &SimConfig, model: Model) -> Diagnosis {

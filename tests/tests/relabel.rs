@@ -9,8 +9,7 @@
 //! simulated runs of every effect id.
 
 use core_nav::table::Axis;
-use hal_sim::imu::ImuSpec;
-use hal_sim::sim::{simulate, SimConfig};
+use hal_sim::sim::simulate;
 use recording::relabel::{relabel, AxisMap};
 use recording::Recording;
 use rins::diagnose::{run, Diagnosis, Options};
@@ -143,26 +142,9 @@ fn the_real_stepper_table_gives_the_same_answer_in_every_labelling() {
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
-/// A run with one effect hidden: the NAV440's noise, bias, scale and
-/// misalignment (no other terms), reciprocating two turns at 60 deg/s.
+/// A run with one effect hidden on the reduced NAV440 (300 s).
 fn hidden(effect: &str, v: f64, axis: Axis, seed: u64) -> Recording {
-    let nav = ImuSpec::nav440();
-    let mut s = ImuSpec::ideal();
-    s.gyro.bias = nav.gyro.bias;
-    s.gyro.scale = nav.gyro.scale;
-    s.gyro.misalignment = nav.gyro.misalignment;
-    s.gyro.white = nav.gyro.white;
-    s.accel.bias = nav.accel.bias;
-    s.accel.scale = nav.accel.scale;
-    s.accel.white = nav.accel.white;
-    s.temp = nav.temp;
-    let mut c = SimConfig::new(s, axis, 300.0);
-    c.scheme = core_nav::scheme::Scheme::Reciprocating {
-        rate: 60f64.to_radians(),
-        turns: 2,
-    };
-    c.static_s = 30.0;
-    c.seed = seed;
+    let mut c = rins_tests::runs::reduced_nav440(axis, false, seed, 300.0);
     c.set_effect(effect, v).unwrap();
     simulate(&c, &mut |_| {}).unwrap()
 }
