@@ -961,6 +961,54 @@ mod tests {
     }
 
     #[test]
+    fn gyro_only_files_read_and_partial_accelerometers_are_refused() {
+        let text = "t_s,gyro_x_radps,gyro_y_radps,gyro_z_radps\n0,1,2,3\n0.01,1,2,3\n";
+        let (rows, gyro_only) = parse_imu_columns(text, &p()).unwrap();
+        assert!(gyro_only);
+        assert!(rows[1].accel_mps2.iter().all(|a| a.is_nan()));
+        assert!(parse_imu(text, &p()).is_err());
+        let partial = "t_s,gyro_x_radps,gyro_y_radps,gyro_z_radps,accel_x_mps2\n0,1,2,3,4\n";
+        let e = parse_imu_columns(partial, &p()).unwrap_err();
+        assert!(e.to_string().contains("accel_y_mps2, accel_z_mps2"), "{e}");
+        let rec = Recording {
+            imu: rows,
+            gyro_only: true,
+            ..Recording::default()
+        };
+        let e = rec.require_accel("rins navigate").unwrap_err();
+        assert!(e.to_string().contains("gyro-only"), "{e}");
+        // Written back without accelerometer columns.
+        assert!(!rec.imu_text().contains("accel"));
+    }
+
+    #[test]
+    fn table_source_and_no_table_are_read() {
+        let base = "format = \"rins-recording/1\"\n[site]\nlatitude_deg = -33.9\nheight_m = 20\n[base]\nheading_deg = 0\npitch_deg = 0\nroll_deg = 0\n[imu]\nrate_hz = 100\n";
+        let with = |t: &str| format!("{base}[table]\naxis = \"z\"\nencoder_rate_hz = 50\n{t}");
+        let m = parse_meta(&with(""), Path::new("meta.toml")).unwrap();
+        assert_eq!(m.table_source, TableSource::Encoder);
+        let m = parse_meta(&with("source = \"commanded\"\n"), Path::new("meta.toml")).unwrap();
+        assert_eq!(m.table_source, TableSource::Commanded);
+        assert!(parse_meta(&with("source = \"guessed\"\n"), Path::new("meta.toml")).is_err());
+        let m = parse_meta(base, Path::new("meta.toml")).unwrap();
+        assert_eq!(m.table_source, TableSource::None);
+        assert_eq!(m.latitude_deg, -33.9);
+    }
+
+    #[test]
+    fn gaps_split_segments_and_the_rate_is_the_nominal_one() {
+        // 100 Hz with a 0.5 s gap: two segments, the rate from rate_hz.
+        let mut t: Vec<f64> = (0..100).map(|i| f64::from(i) * 0.01).collect();
+        t.extend((0..50).map(|i| 1.5 + f64::from(i) * 0.01));
+        let segs = segments(&t, 0.01);
+        assert_eq!(segs.len(), 2);
+        assert_eq!((segs[0].start, segs[0].end, segs[1].end), (0, 100, 150));
+        // An interval of 2 periods is not a gap, 3 is (2.5 the threshold).
+        assert_eq!(segments(&[0.0, 0.02, 0.04], 0.01).len(), 1);
+        assert_eq!(segments(&[0.0, 0.03], 0.01).len(), 2);
+    }
+
+    #[test]
     fn meta_missing_key_is_named_and_unknown_keys_pass() {
         let good = "format = \"rins-recording/1\"\nfuture = 1\n[site]\nlatitude_deg = 30.5\nheight_m = 20\n[base]\nheading_deg = 0\npitch_deg = 0\nroll_deg = 0\n[imu]\nrate_hz = 100\nnew_key = \"x\"\n[table]\naxis = \"z\"\nencoder_rate_hz = 50\n[later]\nx = 1\n";
         let m = parse_meta(good, Path::new("meta.toml")).unwrap();

@@ -68,6 +68,12 @@ fn a_commanded_and_a_gyro_only_real_table_are_diagnosed_and_say_what_they_leave_
     let mut rec = real();
     rec.meta.table_source = TableSource::Commanded;
     let d = run(&rec, "commanded", &Options::default()).unwrap();
+    // The recording has gaps (the logger's): its rate is [imu] rate_hz, not
+    // the span over the count, and its segments are listed.
+    assert_eq!(d.details.rate_hz, 100.0);
+    assert!(d.details.segments.len() > 1, "{:?}", d.details.segments);
+    let n: usize = d.details.segments.iter().map(|s| s.2).sum();
+    assert_eq!(n, rec.imu.len());
     assert!(!named(&d).contains(&EffectId::TimeOffset));
     let out: Vec<EffectId> = d.details.ruled_out.iter().map(|r| r.0).collect();
     assert!(out.contains(&EffectId::TimeOffset) && out.contains(&EffectId::EncoderError));
