@@ -54,6 +54,9 @@ pub fn run(a: &Args) -> Result<()> {
             rec.imu.len()
         );
     }
+    if rec.gyro_only {
+        println!("gyro-only recording (no accel_x_mps2, accel_y_mps2, accel_z_mps2 columns): the accelerometers are not analysed");
+    }
     let pb = progress_bar("allan");
     let chs = allan_mod::compute(&rec);
     pb.finish_and_clear();
