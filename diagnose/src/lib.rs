@@ -159,6 +159,38 @@ pub fn run(
             (sel, unconfirmed) = confirm_slow(&d, &dc, sel);
         }
     }
+    // Findings that move with the encoder's quantisation are its pattern,
+    // not the sensor (select::quantisation_moved).
+    let requantised: Vec<Design> = [0.25, -0.25]
+        .iter()
+        .filter_map(|off| predict::requantised(rec, 2.0, *off))
+        .map(|r| {
+            let mut p2 = predict(&r, earth_scale, dt_known);
+            // Known effects on the measurements, as on the recording's own.
+            p2.y_w.clone_from(&p.y_w);
+            p2.y_f.clone_from(&p.y_f);
+            // The coarser grid's quantisation in the noise model: twice
+            // the quantum, four times its variance.
+            let mut n2 = noise2;
+            for n in &mut n2 {
+                n.quant *= 4.0;
+            }
+            Design::build(&p2, lib(&p2), opts, Some(&n2))
+        })
+        .collect();
+    let moved = select::quantisation_moved(&d, &sel, &requantised);
+    if !moved.is_empty() {
+        let set: Vec<usize> = sel
+            .set
+            .iter()
+            .copied()
+            .filter(|c| !moved.iter().any(|m| m.cand == *c))
+            .collect();
+        sel = Selection {
+            fit: d.fit(&set),
+            set,
+        };
+    }
     // Significance, look-alikes and held-out checks come from the design the
     // selection was made on; the refinement below only sharpens values.
     let judged = report_stats(&d, &sel);
@@ -217,6 +249,24 @@ pub fn run(
     dg.details.strongest_effect = which;
     for imp in &implausible {
         dg.unexplained.push(implausible_line(&d, &p, imp));
+    }
+    for m in &moved {
+        let c = &d.cands[m.cand];
+        let (name, v, v2) = &m.param;
+        dg.unexplained.push(Unexplained {
+            channels: select::channels_of(&d, m.cand)
+                .iter()
+                .filter_map(|ch| CHANNELS.get(*ch))
+                .map(|c| (*c).to_string())
+                .collect(),
+            where_: format!(
+                "looks like {} ({name} = {v:.3e}) but moves with the encoder's quantisation: {v2:.3e} with the reads' grid doubled, beyond 3 sigma: the encoder's deterministic rounding along this run's motion, not the sensor; a still start, both directions at several rates or a finer encoder would tell; {}",
+                c.id,
+                c.where_()
+            ),
+            snr: m.snr,
+            may_be: Some(c.id),
+        });
     }
     for u in &unconfirmed {
         dg.unexplained.push(Unexplained {

@@ -165,6 +165,23 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
     p
 }
 
+/// `rec` with its encoder angles re-rounded to `factor` times their own
+/// quantum, the grid shifted by `offset` of the new quantum: the same run as
+/// a coarser encoder would have read it. `None` when the angles are on no
+/// grid (nothing to re-round).
+pub fn requantised(rec: &Recording, factor: f64, offset: f64) -> Option<Recording> {
+    let a: Vec<f64> = rec.table.iter().map(|r| r.angle_rad).collect();
+    let q = encoder_quantum(&a) * factor;
+    if q.is_nan() || q <= 0.0 || !rec.meta.table_source.is_measured() {
+        return None;
+    }
+    let mut out = rec.clone();
+    for r in &mut out.table {
+        r.angle_rad = q * (r.angle_rad / q + offset).round();
+    }
+    Some(out)
+}
+
 /// Residual rms.
 pub fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()

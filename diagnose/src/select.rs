@@ -13,6 +13,91 @@ pub(super) struct Selection {
     pub(super) fit: Fit,
 }
 
+/// A finding whose size moves with the encoder's quantisation.
+#[derive(Clone, Debug)]
+pub(super) struct Moved {
+    /// The candidate.
+    pub(super) cand: usize,
+    /// Its parameter that moved most: name, value, value on the re-rounded
+    /// encoder.
+    pub(super) param: (String, f64, f64),
+    /// Its whitened evidence on the recording.
+    pub(super) snr: f64,
+}
+
+/// The selected candidates whose physics rides on the table's measured rate
+/// (rate-squared, asymmetry, time offset, the mount's wobble; not the
+/// encoder error, which lives in the angles themselves and which coarser
+/// rounding changes for real) and whose fitted parameters, refitted with the same selection on
+/// the recording re-read by a coarser encoder (`requantised`: each a design
+/// of the same candidates), move by more than 3 sigma (the larger of the two
+/// fits'): a real sensor term stays within its sigma when the encoder's
+/// rounding changes, the rounding's own pattern does not.
+pub(super) fn quantisation_moved(
+    d: &Design,
+    sel: &Selection,
+    requantised: &[Design],
+) -> Vec<Moved> {
+    use super::effects::Kind;
+    let mut out = vec![];
+    // Only designs with the same candidates, index for index (a re-rounded
+    // angle can take a run's span under a whole turn).
+    let fits: Vec<Fit> = requantised
+        .iter()
+        .filter(|r| {
+            r.cands.len() == d.cands.len()
+                && r.cands.iter().zip(&d.cands).all(|(a, b)| a.kind == b.kind)
+        })
+        .map(|r| r.fit(&sel.set))
+        .collect();
+    for &ci in &sel.set {
+        let Some(c) = d.cands.get(ci) else { continue };
+        if !matches!(
+            c.kind,
+            Kind::GyroK2 | Kind::GyroAsym | Kind::TimeOffset | Kind::Wobble
+        ) {
+            continue;
+        }
+        let mut worst: Option<(f64, Moved)> = None;
+        for f2 in &fits {
+            for (k, _) in &sel.fit.index {
+                let Key::Effect { cand, param } = *k else {
+                    continue;
+                };
+                if cand != ci {
+                    continue;
+                }
+                let (Some((v, s1)), Some((v2, s2))) = (sel.fit.value(*k), f2.value(*k)) else {
+                    continue;
+                };
+                let z = (v2 - v).abs() / s1.max(s2).max(1e-300);
+                if z > 3.0 && worst.as_ref().is_none_or(|w| z > w.0) {
+                    let name = d
+                        .names
+                        .get(ci)
+                        .and_then(|n| n.get(param))
+                        .cloned()
+                        .unwrap_or_default();
+                    let rest: Vec<usize> = sel.set.iter().copied().filter(|x| *x != ci).collect();
+                    let snr = (d.fit(&rest).rss_w - sel.fit.rss_w).max(0.0).sqrt();
+                    worst = Some((
+                        z,
+                        Moved {
+                            cand: ci,
+                            param: (name, v, v2),
+                            snr,
+                        },
+                    ));
+                }
+            }
+        }
+        if let Some((_, m)) = worst {
+            out.push(m);
+        }
+    }
+    out
+}
+
 /// A candidate the data would take, but only at a size no sensor, table or
 /// site can have (beyond its catalogue bound): not a finding, reported
 /// among the unexplained mismatches with its size and the reason.
