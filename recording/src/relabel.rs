@@ -33,12 +33,13 @@ impl AxisMap {
         [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]],
         "rolled 180 deg",
     );
-    /// Pitched 90 deg about y (new x = old -z... as a passive relabel).
+    /// The base pitched 90 deg about y: new x = old -z, new z = old x.
     pub const PITCH_90: AxisMap = AxisMap::new(
         [[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]],
         "pitched 90 deg",
     );
-    /// Turned 90 deg in heading about z.
+    /// The base turned 90 deg in heading about z: new x = old y, new y =
+    /// old -x.
     pub const HEADING_90: AxisMap = AxisMap::new(
         [[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
         "turned 90 deg in heading",
@@ -48,7 +49,7 @@ impl AxisMap {
         [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
         "axes cycled (x, y, z) <- (y, z, x)",
     );
-    /// A permutation with sign flips (x <- -z, y <- -y... ).
+    /// A permutation with sign flips: new (x, y, z) = old (-z, -y, -x).
     pub const SWAP_FLIP: AxisMap = AxisMap::new(
         [[0.0, 0.0, -1.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]],
         "axes swapped with sign flips (x, y, z) <- (-z, -y, -x)",
