@@ -94,6 +94,18 @@ impl Candidate {
         )
     }
 
+    /// Its physics rides on the table's measured rate (rate-squared,
+    /// asymmetry, time offset, the mount's wobble): what the encoder's
+    /// rounding can imitate (`select::quantisation_moved`). Not the encoder
+    /// error, which lives in the angles themselves and which coarser
+    /// rounding changes for real.
+    pub fn rides_on_rate(&self) -> bool {
+        matches!(
+            self.kind,
+            Kind::GyroK2 | Kind::GyroAsym | Kind::TimeOffset | Kind::Wobble
+        )
+    }
+
     /// Parameters chosen by searching a grid rather than fitted linearly
     /// (a warm-up's time constant): free parameters all the same, each
     /// counted in the BIC penalty like a fitted one.
@@ -326,23 +338,34 @@ impl Candidate {
                 // delta, so w_s = (I - [delta x]) theta_dot k + d delta / dt
                 // = theta_dot (k x u h + u h') and f_s = f x u h.
                 let [(u1, _), (u2, _)] = normals(&k);
+                // cos and sin of theta and 2 theta, once per sample (the 8
+                // parameters x 6 channels would otherwise take them 72 times
+                // a sample: a third of a diagnosis).
+                let trig: Vec<[f64; 4]> = p
+                    .theta
+                    .iter()
+                    .map(|t| {
+                        let (s1, c1) = t.0.sin_cos();
+                        let (s2, c2) = (2.0 * t.0).sin_cos();
+                        [c1, s1, c2, s2]
+                    })
+                    .collect();
                 let mut param = 0;
-                for n in 1..=2 {
-                    let nf = f64::from(n);
+                for n in 1..=2usize {
+                    let nf = n as f64;
+                    let (ic, is) = (2 * (n - 1), 2 * (n - 1) + 1);
                     for u in [u1, u2] {
                         for sine in [false, true] {
-                            let h = |th: f64| {
-                                if sine {
-                                    (nf * th).sin()
-                                } else {
-                                    (nf * th).cos()
-                                }
+                            // h(theta) and dh/dtheta at sample r.
+                            let at = |r: usize, j: usize| {
+                                trig.get(r).and_then(|t| t.get(j)).copied().unwrap_or(0.0)
                             };
-                            let dh = |th: f64| {
+                            let h = |r: usize| if sine { at(r, is) } else { at(r, ic) };
+                            let dh = |r: usize| {
                                 if sine {
-                                    nf * (nf * th).cos()
+                                    nf * at(r, ic)
                                 } else {
-                                    -nf * (nf * th).sin()
+                                    -nf * at(r, is)
                                 }
                             };
                             let ku = k.cross(&u);
@@ -350,15 +373,12 @@ impl Candidate {
                                 out.push(Term {
                                     ch: i,
                                     param,
-                                    col: col(&|r| {
-                                        let (th, w, _) = p.theta[r];
-                                        w * (ku[i] * h(th) + u[i] * dh(th))
-                                    }),
+                                    col: col(&|r| p.theta[r].1 * (ku[i] * h(r) + u[i] * dh(r))),
                                 });
                                 out.push(Term {
                                     ch: 3 + i,
                                     param,
-                                    col: col(&|r| p.f[r].cross(&u)[i] * h(p.theta[r].0)),
+                                    col: col(&|r| p.f[r].cross(&u)[i] * h(r)),
                                 });
                             }
                             param += 1;

@@ -161,7 +161,11 @@ pub fn run(
     }
     // Findings that move with the encoder's quantisation are its pattern,
     // not the sensor (select::quantisation_moved).
-    let requantised: Vec<Design> = [0.25, -0.25]
+    // Built only when the selection holds a rate-shaped finding (two
+    // designs: the dearest step of a diagnosis).
+    let rate_shaped = sel.set.iter().any(|c| d.cands[*c].rides_on_rate());
+    let offsets: &[f64] = if rate_shaped { &[0.25, -0.25] } else { &[] };
+    let requantised: Vec<Design> = offsets
         .iter()
         .filter_map(|off| predict::requantised(rec, 2.0, *off))
         .map(|r| {

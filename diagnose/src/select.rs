@@ -38,7 +38,6 @@ pub(super) fn quantisation_moved(
     sel: &Selection,
     requantised: &[Design],
 ) -> Vec<Moved> {
-    use super::effects::Kind;
     let mut out = vec![];
     // Only designs with the same candidates, index for index (a re-rounded
     // angle can take a run's span under a whole turn).
@@ -51,11 +50,7 @@ pub(super) fn quantisation_moved(
         .map(|r| r.fit(&sel.set))
         .collect();
     for &ci in &sel.set {
-        let Some(c) = d.cands.get(ci) else { continue };
-        if !matches!(
-            c.kind,
-            Kind::GyroK2 | Kind::GyroAsym | Kind::TimeOffset | Kind::Wobble
-        ) {
+        if !d.cands.get(ci).is_some_and(|c| c.rides_on_rate()) {
             continue;
         }
         let mut worst: Option<(f64, Moved)> = None;
