@@ -255,6 +255,15 @@ impl Design {
         }
     }
 
+    /// The name of parameter `param` of candidate `ci` (empty if none).
+    pub(super) fn param_name(&self, ci: usize, param: usize) -> String {
+        self.names
+            .get(ci)
+            .and_then(|n| n.get(param))
+            .cloned()
+            .unwrap_or_default()
+    }
+
     pub(super) fn rows(&self) -> usize {
         self.ch.iter().map(|c| c.rows.iter().sum::<usize>()).sum()
     }

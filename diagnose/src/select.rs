@@ -67,12 +67,7 @@ pub(super) fn quantisation_moved(
                 };
                 let z = (v2 - v).abs() / s1.max(s2).max(1e-300);
                 if z > 3.0 && worst.as_ref().is_none_or(|w| z > w.0) {
-                    let name = d
-                        .names
-                        .get(ci)
-                        .and_then(|n| n.get(param))
-                        .cloned()
-                        .unwrap_or_default();
+                    let name = d.param_name(ci, param);
                     let rest: Vec<usize> = sel.set.iter().copied().filter(|x| *x != ci).collect();
                     let snr = (d.fit(&rest).rss_w - sel.fit.rss_w).max(0.0).sqrt();
                     worst = Some((
@@ -126,12 +121,7 @@ fn beyond_bound(d: &Design, f: &Fit, ci: usize) -> Option<(usize, f64, f64, f64)
 
 fn implausible(d: &Design, base: &Fit, f: &Fit, ci: usize) -> Option<Implausible> {
     let (pi, v, sd, ratio) = beyond_bound(d, f, ci)?;
-    let name = d
-        .names
-        .get(ci)
-        .and_then(|n| n.get(pi))
-        .cloned()
-        .unwrap_or_default();
+    let name = d.param_name(ci, pi);
     Some(Implausible {
         cand: ci,
         param: (name, v, sd),
