@@ -90,11 +90,58 @@ fn finite_mean<T: Real>(y: &[T]) -> Option<f64> {
 /// `None` when `m == 0` or `2m > N` (no second difference fits), or when
 /// a sample is not finite.
 pub fn oadev<T: Real>(y: &[T], tau0_s: f64, m: usize) -> Option<AdevPoint> {
+    oadev_segments(y, tau0_s, m, core::slice::from_ref(&(0..y.len())))
+}
+
+/// [`oadev`] of a series with gaps: `segments` are the index ranges of `y`
+/// sampled without a gap; no difference straddles one. Each segment long
+/// enough (`2m` samples) adds its squared second differences and its
+/// equivalent degrees of freedom; `None` when none is, when `m == 0`, or
+/// when a sample is not finite. One segment over all of `y` is [`oadev`].
+pub fn oadev_segments<T: Real>(
+    y: &[T],
+    tau0_s: f64,
+    m: usize,
+    segments: &[core::ops::Range<usize>],
+) -> Option<AdevPoint> {
+    if m == 0 {
+        return None;
+    }
+    let mean = finite_mean(y)?;
+    let (mut acc, mut terms, mut edf) = (0.0, 0usize, 0.0);
+    for sg in segments {
+        let Some(part) = y.get(sg.clone()) else {
+            continue;
+        };
+        if let Some((a, t)) = second_differences(part, m, mean) {
+            acc += a;
+            terms += t;
+            edf += oadev_edf(part.len(), m);
+        }
+    }
+    if terms == 0 {
+        return None;
+    }
+    let m_f = m as f64;
+    let var = acc / (2.0 * m_f * m_f * terms as f64);
+    Some(with_interval(AdevPoint {
+        m,
+        tau_s: m_f * tau0_s,
+        adev: libm::sqrt(var),
+        terms,
+        edf: edf.max(1.0),
+        lo: 0.0,
+        hi: 0.0,
+    }))
+}
+
+/// The sum of squared overlapping second differences of `y`'s `m`-sums
+/// (about `mean`) and their count; `None` when `2m > N`.
+fn second_differences<T: Real>(y: &[T], m: usize, mean: f64) -> Option<(f64, usize)> {
     let n = y.len();
     if m == 0 || 2 * m > n {
         return None;
     }
-    let mean = finite_mean(y)?;
     let at = |i: usize| y.get(i).map_or(0.0, |v| v.to_f64() - mean);
     let window = |start: usize| (start..start + m).map(at).sum::<f64>();
     let terms = n - 2 * m + 1;
@@ -114,22 +161,17 @@ pub fn oadev<T: Real>(y: &[T], tau0_s: f64, m: usize) -> Option<AdevPoint> {
         let d = s2 - s1;
         acc += d * d;
     }
+    Some((acc, terms))
+}
+
+/// Equivalent degrees of freedom of an overlapping ADEV over `n` samples
+/// at factor `m` (SP 1065 Table 5, white FM, N phase points = samples + 1).
+fn oadev_edf(n: usize, m: usize) -> f64 {
     let m_f = m as f64;
-    let var = acc / (2.0 * m_f * m_f * terms as f64);
-    // SP 1065 Table 5, white FM, N phase points = samples + 1.
     let n_ph = n as f64 + 1.0;
-    let edf = ((3.0 * (n_ph - 1.0) / (2.0 * m_f) - 2.0 * (n_ph - 2.0) / n_ph) * 4.0 * m_f * m_f
+    ((3.0 * (n_ph - 1.0) / (2.0 * m_f) - 2.0 * (n_ph - 2.0) / n_ph) * 4.0 * m_f * m_f
         / (4.0 * m_f * m_f + 5.0))
-        .max(1.0);
-    Some(with_interval(AdevPoint {
-        m,
-        tau_s: m_f * tau0_s,
-        adev: libm::sqrt(var),
-        terms,
-        edf,
-        lo: 0.0,
-        hi: 0.0,
-    }))
+        .max(1.0)
 }
 
 /// Non-overlapping ADEV of `y` at averaging factor `m`: the block means
@@ -404,6 +446,25 @@ mod tests {
         assert!((a1 / 91.229_45 - 1.0).abs() < 1e-6, "{a1}");
         assert!((a2 / 85.952_87 - 1.0).abs() < 1e-6, "{a2}");
         assert!(oadev(&y, 1.0, 5).is_none());
+    }
+
+    #[test]
+    fn no_difference_straddles_a_gap() {
+        // Two segments of +-1 alternating samples, the second 1000 higher:
+        // within a segment every first difference is +-2, so ADEV(1) is
+        // sqrt(4 / 2) = sqrt(2) exactly; over the jump the contiguous
+        // estimate sees a difference of ~1000 and reads far higher.
+        let seg = |off: f64| (0..500).map(move |i| off + if i % 2 == 0 { 1.0 } else { -1.0 });
+        let y: Vec<f64> = seg(0.0).chain(seg(1000.0)).collect();
+        let two = oadev_segments(&y, 0.01, 1, &[0..500, 500..1000]).unwrap();
+        assert!((two.adev - 2f64.sqrt()).abs() < 1e-9, "{two:?}");
+        assert_eq!(two.terms, 998);
+        assert!(oadev(&y, 0.01, 1).unwrap().adev > 10.0);
+        // One segment over everything is the contiguous estimate, bit for bit.
+        let one = oadev_segments(&y, 0.01, 3, core::slice::from_ref(&(0..1000))).unwrap();
+        assert_eq!(one, oadev(&y, 0.01, 3).unwrap());
+        // A segment shorter than 2m adds nothing; none long enough: None.
+        assert_eq!(oadev_segments(&y, 0.01, 300, &[0..500, 500..1000]), None);
     }
 
     #[test]

@@ -66,9 +66,10 @@ pub struct Term {
 
 const AX: [&str; 3] = ["x", "y", "z"];
 
-/// A gyro axis whose rate never exceeds this (5 deg/s) gets no rate-shaped
-/// terms: nothing in the run drives them.
-pub const MIN_RATE_RADPS: f64 = 0.0873;
+/// A gyro axis whose rate never exceeds this (the simulator's turning
+/// threshold, 5 deg/s) gets no rate-shaped terms: nothing in the run drives
+/// them.
+pub const MIN_RATE_RADPS: f64 = hal_sim::world::TURNING_RADPS;
 
 /// Vector of `b` expressed in `s` at table angle `th` (rad) about `k`: the
 /// inverse of the rotation `predict` uses (`R(k, th)` takes `s` to `b`).

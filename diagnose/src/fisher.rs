@@ -10,11 +10,12 @@ use hal_sim::catalogue::EffectId;
 use nalgebra::{DMatrix, DVector};
 use recording::Recording;
 
-/// Does the residual's Allan deviation show more than white noise? Returns
+/// Does the residual's Allan deviation (a series without gaps) show more than white noise? Returns
 /// the fitted (white, bias instability) and the ratio of the long-tau ADEV
 /// to the white-noise extrapolation.
 pub fn allan_excess(res: &[f64], tau0: f64) -> (f64, f64, f64) {
-    let (pts, fit) = crate::noise_terms::fit_channel(res, tau0);
+    let (pts, fit) =
+        crate::noise_terms::fit_channel(res, tau0, std::slice::from_ref(&(0..res.len())));
     let last = pts.iter().rev().find(|p| p.terms >= 20);
     let ratio = last.map_or(1.0, |p| p.adev / (fit.white / p.tau_s.sqrt()).max(1e-300));
     (fit.white, fit.bias_instability, ratio)

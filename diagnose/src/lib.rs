@@ -58,6 +58,7 @@ mod report;
 mod select;
 pub mod study;
 pub mod twin;
+pub mod untracked;
 
 pub use error::DiagnoseError;
 pub use finding::{Details, Diagnosis, Finding, FitFigures, Parameter, Unexplained};
@@ -324,6 +325,7 @@ fn implausible_line(d: &Design, p: &Prediction, imp: &select::Implausible) -> Un
 fn effects_tried(d: &Design) -> usize {
     let mut ids: Vec<hal_sim::catalogue::EffectId> = d.cands.iter().map(|c| c.id).collect();
     ids.push(hal_sim::catalogue::EffectId::BiasInstability);
+    ids.push(hal_sim::catalogue::EffectId::UntrackedTableMotion);
     ids.sort_by_key(|e| e.as_str());
     ids.dedup();
     ids.len()

@@ -2,7 +2,8 @@
 //! (core-nav's `allan`), as `rins allan` and diagnose's report both print
 //! it.
 
-use core_nav::allan::{fit_noise, oadev, octave_factors, AdevPoint, NoiseFit};
+use core::ops::Range;
+use core_nav::allan::{fit_noise, oadev_segments, octave_factors, AdevPoint, NoiseFit};
 
 /// The channel names, in the recording's column order (recording-v1).
 pub const CHANNELS: [&str; 6] = {
@@ -16,11 +17,22 @@ pub const MIN_TERMS: usize = 10;
 /// by the sensor's own anti-alias / decimation filter (seen on the ADIS16405).
 pub const FIT_MIN_M: usize = 10;
 
-/// The Allan curve of one channel's samples `y` (period `tau0_s`) and its
-/// noise fit: the one noise estimator `rins allan` and diagnose both print.
-pub fn fit_channel(y: &[f64], tau0_s: f64) -> (Vec<AdevPoint>, NoiseFit) {
-    let points: Vec<AdevPoint> = octave_factors(y.len(), MIN_TERMS)
-        .filter_map(|m| oadev(y, tau0_s, m))
+/// The Allan curve of one channel's samples `y` (period `tau0_s`; no
+/// difference straddles a gap between the `segments`, the rows sampled
+/// without one: `recording::segment_ranges`) and its noise fit: the one
+/// noise estimator `rins allan` and diagnose both print.
+pub fn fit_channel(
+    y: &[f64],
+    tau0_s: f64,
+    segments: &[Range<usize>],
+) -> (Vec<AdevPoint>, NoiseFit) {
+    let longest = segments
+        .iter()
+        .map(ExactSizeIterator::len)
+        .max()
+        .unwrap_or(0);
+    let points: Vec<AdevPoint> = octave_factors(longest, MIN_TERMS)
+        .filter_map(|m| oadev_segments(y, tau0_s, m, segments))
         .collect();
     let fitted: Vec<AdevPoint> = points
         .iter()

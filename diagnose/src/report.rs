@@ -143,27 +143,34 @@ pub(super) fn report(
     let mut noise_final = vec![];
     let mut whiteness = vec![];
     let mut dispersion = vec![];
-    let fits: Vec<(Vec<f64>, Noise, Noise)> = std::thread::scope(|sc| {
-        let one = |ch: usize| {
-            let z = d.block_residual(&sel.fit, ch);
-            if !p.recorded(ch) {
-                return (z, Noise::none(block_s), Noise::none(block_s));
-            }
-            let gm = noise::fit(&z, block_s, d.quant[ch]);
-            let wn = noise::fit_white(&z, block_s, d.quant[ch]);
-            (z, gm, wn)
-        };
-        let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || one(ch))).collect();
-        hs.into_iter()
-            .enumerate()
-            .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
-            .collect()
-    });
-    let allan: Vec<core_nav::allan::NoiseFit> = (0..6)
-        .map(|ch| match p.recorded(ch) {
-            true => crate::noise_terms::fit_channel(&res_after[ch], dt).1,
-            false => core_nav::allan::NoiseFit::default(),
-        })
+    let segs = recording::segment_ranges(&p.t_s, p.dt_s);
+    let segs = &segs;
+    // Per channel, in parallel: the block means' ML models (white +
+    // Gauss-Markov, white only) and the one noise estimator's Allan fit.
+    #[allow(clippy::type_complexity)]
+    let per_ch: Vec<(Vec<f64>, Noise, Noise, core_nav::allan::NoiseFit)> =
+        std::thread::scope(|sc| {
+            let one = |ch: usize| {
+                let z = d.block_residual(&sel.fit, ch);
+                if !p.recorded(ch) {
+                    let none = Noise::none(block_s);
+                    return (z, none, none, core_nav::allan::NoiseFit::default());
+                }
+                let gm = noise::fit(&z, block_s, d.quant[ch]);
+                let wn = noise::fit_white(&z, block_s, d.quant[ch]);
+                let a = crate::noise_terms::fit_channel(&res_after[ch], dt, segs).1;
+                (z, gm, wn, a)
+            };
+            let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || one(ch))).collect();
+            hs.into_iter()
+                .enumerate()
+                .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
+                .collect()
+        });
+    let mut allan: Vec<core_nav::allan::NoiseFit> = per_ch.iter().map(|f| f.3).collect();
+    let fits: Vec<(Vec<f64>, Noise, Noise)> = per_ch
+        .into_iter()
+        .map(|(z, gm, wn, _)| (z, gm, wn))
         .collect();
     for triad in 0..2 {
         let mut params = vec![];
@@ -255,6 +262,12 @@ pub(super) fn report(
             ));
         }
     }
+    if let Some(u) = super::untracked::detect(p, &res_after) {
+        let blocks = fits.get(u.ch).map_or(0, |f| f.0.len());
+        let f = super::untracked::finding(&u, &allan, blocks);
+        super::untracked::take_out(&u, &mut allan);
+        findings.push((f.delta_bic, f));
+    }
     findings.sort_by(|a, b| a.0.total_cmp(&b.0));
     let findings: Vec<Finding> = findings.into_iter().map(|(_, f)| f).collect();
     // Not excited by this run.
@@ -288,8 +301,7 @@ pub(super) fn report(
     }
     let locate = locate::locate(p, &res_before, dt);
     let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
-    let mut unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
-    unexplained.extend(locate::untracked_motion(p, &res_after));
+    let unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
 
     Diagnosis {
         recording: name.to_string(),

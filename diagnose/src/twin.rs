@@ -160,6 +160,22 @@ impl Diagnosis {
             }
         }
         for (fi, f) in self.findings.iter().enumerate() {
+            if f.effect == EffectId::UntrackedTableMotion {
+                // The table-axis gyro's white is the sensor's own; the
+                // motion is the table's (left out: the sensor's alone).
+                let ka = f.channels.first().copied().unwrap_or(0) % 3;
+                if let (Some(n), Some(w)) = (
+                    m.gyro.noise.get_mut(ka),
+                    f.value("sensor_white_rad_per_sqrt_s"),
+                ) {
+                    n.white = w;
+                }
+                if Some(fi) != skip {
+                    m.untracked_motion_rad_per_sqrt_s =
+                        f.value("untracked_density_rad_per_sqrt_s").unwrap_or(0.0);
+                }
+                continue;
+            }
             if Some(fi) == skip {
                 if f.effect == EffectId::BiasInstability {
                     // Without it: white noise only on its channels.
@@ -441,6 +457,11 @@ fn strip(acc: &SimModel, without: &SimModel, full: &SimModel) -> SimModel {
         full.earth_rate_scale,
     );
     m.time_offset_s = pick(acc.time_offset_s, without.time_offset_s, full.time_offset_s);
+    m.untracked_motion_rad_per_sqrt_s = pick(
+        acc.untracked_motion_rad_per_sqrt_s,
+        without.untracked_motion_rad_per_sqrt_s,
+        full.untracked_motion_rad_per_sqrt_s,
+    );
     if without.accel_time_offset_s != full.accel_time_offset_s {
         m.accel_time_offset_s = without.accel_time_offset_s;
     }

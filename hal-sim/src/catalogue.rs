@@ -35,11 +35,17 @@ pub enum EffectId {
     /// repeats each revolution (rad): cross-axis gyro signals in proportion
     /// to the table rate and accelerometer ones locked to the angle.
     TableAngleHarmonic,
+    /// Table motion between encoder reads that the encoder track cannot
+    /// follow and the IMU's samples alias (a stepper's steps, cogging): rate
+    /// noise on the table-axis gyro while the table turns, not the
+    /// sensor's, with an angle too small for the encoder to show
+    /// (rad/sqrt(s), the density of that rate noise).
+    UntrackedTableMotion,
 }
 
 impl EffectId {
     /// Every id, in the spec's order.
-    pub const ALL: [EffectId; 12] = [
+    pub const ALL: [EffectId; 13] = [
         EffectId::EarthRate,
         EffectId::GyroGSensitivity,
         EffectId::GyroScaleNonlinearity,
@@ -52,6 +58,7 @@ impl EffectId {
         EffectId::EncoderError,
         EffectId::AccelScaleNonlinearity,
         EffectId::TableAngleHarmonic,
+        EffectId::UntrackedTableMotion,
     ];
 
     /// The id as the spec and the JSON write it.
@@ -69,6 +76,7 @@ impl EffectId {
             EffectId::EncoderError => "encoder_error",
             EffectId::AccelScaleNonlinearity => "accel_scale_nonlinearity",
             EffectId::TableAngleHarmonic => "table_angle_harmonic",
+            EffectId::UntrackedTableMotion => "untracked_table_motion",
         }
     }
 
@@ -93,14 +101,24 @@ impl EffectId {
             EffectId::EncoderError => bound::ENCODER,
             EffectId::AccelScaleNonlinearity => bound::ACCEL_K2,
             EffectId::TableAngleHarmonic => bound::TABLE_HARMONIC,
-            EffectId::BiasInstability => return None,
+            EffectId::BiasInstability | EffectId::UntrackedTableMotion => return None,
         })
     }
 
     /// A deterministic effect with parameters a model can state
-    /// (`bias_instability` is noise: it has none).
+    /// (`bias_instability` and `untracked_table_motion` are noise: they
+    /// have none).
     pub const fn is_deterministic(self) -> bool {
-        !matches!(self, EffectId::BiasInstability)
+        !matches!(
+            self,
+            EffectId::BiasInstability | EffectId::UntrackedTableMotion
+        )
+    }
+
+    /// A noise term: found from the residual's statistics, not fitted as
+    /// a regressor (the complement of [`Self::is_deterministic`]).
+    pub const fn is_noise(self) -> bool {
+        !self.is_deterministic()
     }
 }
 

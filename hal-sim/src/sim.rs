@@ -12,6 +12,7 @@ use crate::imu::{ImuModel, ImuSpec};
 use crate::rng::Rng;
 use crate::world::{
     Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Servo, Site, Table,
+    UntrackedMotion,
 };
 use core_nav::attitude::Euler;
 use core_nav::scheme::{Limits, Profile, Scheme};
@@ -68,6 +69,8 @@ pub struct SimConfig {
     pub temp_bias_override: Option<f64>,
     /// A vehicle under the table (moving base; `None`: a static base).
     pub drive: Option<DriveSpec>,
+    /// Table motion between encoder reads the track cannot follow.
+    pub untracked: UntrackedMotion,
 }
 
 /// The vehicle the table rides on and its GNSS receiver.
@@ -104,6 +107,7 @@ impl SimConfig {
             g_sens_matrix: None,
             temp_bias_override: None,
             drive: None,
+            untracked: UntrackedMotion::default(),
         }
     }
 
@@ -279,6 +283,12 @@ pub const EFFECTS: &[Effect] = &[
         unit: "rad",
         help: "the sensor's mount rocking with the table angle once per revolution (a bent shaft): amplitude of the small rotation",
         apply: |c, v| c.geometry.wobble_harmonics[0] = [v, 0.0, 0.0, v],
+    },
+    Effect {
+        name: EffectId::UntrackedTableMotion.as_str(),
+        unit: "rad/sqrt(s)",
+        help: "table motion between encoder reads that the track cannot follow (a stepper's steps): rate noise of this density about the table axis while it turns, seen by the gyros, not the encoder",
+        apply: |c, v| c.untracked.density_rad_per_sqrt_s = v,
     },
     // Other terms of the error model.
     Effect {
@@ -551,6 +561,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let (mut gnss_rows, mut truth_rows) = (vec![], vec![]);
     let mut k_gnss = 1u64;
     let mut jitter = Rng::new(cfg.seed, 3);
+    let mut untracked = Rng::new(cfg.seed, 41);
     let mut table = Table::new(cfg.motor.clone());
     let mut servo = Servo::for_motor(&cfg.motor);
     let mut hist = History::new(PHYS_DT, 2_000);
@@ -657,7 +668,11 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 }
                 None => scene.truth(&kin_at(tt), tt),
             };
-            let (w, mut f) = truth_at(t_true);
+            let (mut w, mut f) = truth_at(t_true);
+            w += cfg.geometry.axis.unit::<f64>()
+                * cfg
+                    .untracked
+                    .rate(&mut untracked, kin_at(t_true).rate, imu_dt);
             if let Some(l) = cfg.imu.accel_latency_s {
                 f = truth_at((t_k - l + j).max(0.0)).1;
             }

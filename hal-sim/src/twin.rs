@@ -13,7 +13,7 @@
 //! channel.
 
 use crate::imu::{ImuModel, ImuSpec};
-use crate::world::{Geometry, Kinematics, Scene};
+use crate::world::{Geometry, Kinematics, Scene, UntrackedMotion};
 use nalgebra::{Matrix3, Vector3};
 use recording::track::EncoderTrack;
 use recording::{ImuRow, Recording};
@@ -28,6 +28,10 @@ fn one() -> f64 {
 
 fn is_zero_wobble(v: &[[f64; 4]; 2]) -> bool {
     v.iter().flatten().all(|x| *x == 0.0)
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn is_zero3(v: &[f64; 3]) -> bool {
@@ -143,6 +147,13 @@ pub struct SimModel {
     /// A gyro warm-up (no temperature recorded).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub warmup: Option<Warmup>,
+    /// Table motion between encoder reads that the track cannot follow
+    /// (`untracked_table_motion`): the density of its rate noise about the
+    /// table axis while the table turns, rad/sqrt(s)
+    /// ([`crate::world::UntrackedMotion`]). The table-axis gyro's `white`
+    /// is then the sensor's own.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub untracked_motion_rad_per_sqrt_s: f64,
 }
 
 impl Default for SimModel {
@@ -162,6 +173,7 @@ impl Default for SimModel {
             accel_time_offset_s: None,
             encoder_error_rad: [0.0; 2],
             warmup: None,
+            untracked_motion_rad_per_sqrt_s: 0.0,
         }
     }
 }
@@ -223,6 +235,12 @@ impl SimModel {
     fn check(&self) -> Result<(), TwinError> {
         let accel_dt = self.accel_time_offset_s.unwrap_or(self.time_offset_s);
         let mut all: Vec<f64> = vec![self.earth_rate_scale, self.time_offset_s, accel_dt];
+        if self.untracked_motion_rad_per_sqrt_s < 0.0 {
+            return Err(TwinError::Value(
+                "untracked_motion_rad_per_sqrt_s must not be negative".into(),
+            ));
+        }
+        all.push(self.untracked_motion_rad_per_sqrt_s);
         all.extend(self.lever_arm_m);
         all.extend(self.tilt_rad);
         all.extend(self.wobble_harmonics_rad.iter().flatten());
@@ -263,6 +281,7 @@ impl SimModel {
         let mut m = self.clone();
         m.gyro.noise = Default::default();
         m.accel.noise = Default::default();
+        m.untracked_motion_rad_per_sqrt_s = 0.0;
         m
     }
 }
@@ -379,12 +398,16 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
     let track = EncoderTrack::of(rec);
     let [ec, es] = model.encoder_error_rad;
     let dt_nominal = 1.0 / m.imu_rate_hz.max(1e-9);
+    let untracked = UntrackedMotion {
+        density_rad_per_sqrt_s: model.untracked_motion_rad_per_sqrt_s,
+    };
+    let mut untracked_rng = crate::rng::Rng::new(seed, 41);
     let mut out = rec.clone();
     let mut t_prev = t0 - dt_nominal;
     for (r, (row, src)) in out.imu.iter_mut().zip(&rec.imu).enumerate() {
         let t_true = src.t_s - model.time_offset_s;
         let kin = true_motion(&track, t_true, ec, es);
-        let (w, mut f) = scene.truth(&kin, t_true);
+        let (mut w, mut f) = scene.truth(&kin, t_true);
         if let Some(dt_a) = model.accel_time_offset_s {
             f = scene
                 .truth(
@@ -399,6 +422,8 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
         };
         let dt = (src.t_s - t_prev).max(1e-6);
         t_prev = src.t_s;
+        w +=
+            m.axis.unit::<f64>() * untracked.rate(&mut untracked_rng, kin.rate, dt.min(dt_nominal));
         let (g, a) = imu.measure(&w, &f, temp, dt);
         *row = ImuRow {
             t_s: src.t_s,

@@ -131,6 +131,35 @@ impl Geometry {
     }
 }
 
+/// The table turns (a stepper steps, so the motion the track cannot follow
+/// is there) above this rate, rad/s: 5 deg/s, well above any drift of a
+/// table held still and below the slowest scheme a table runs.
+pub const TURNING_RADPS: f64 = 0.0873;
+
+/// Table motion between encoder reads that the encoder track cannot follow
+/// and the IMU's samples alias (`untracked_table_motion`: a stepper's
+/// steps, cogging, a servo's buzz). Modelled as white rate noise about the
+/// table axis while the table turns: the gyros see it, the encoder does
+/// not (its angle stays within the encoder's quantum between reads).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UntrackedMotion {
+    /// Density of the rate noise, rad/sqrt(s) (0: none).
+    pub density_rad_per_sqrt_s: f64,
+}
+
+impl UntrackedMotion {
+    /// The rate one sample sees on top of the table's, rad/s about the
+    /// table axis: white over the sample period `dt_s`, while the table
+    /// turns faster than [`TURNING_RADPS`]. Draws from `rng` only when the
+    /// motion is there (runs without it keep their bits).
+    pub fn rate(&self, rng: &mut crate::rng::Rng, table_rate_radps: f64, dt_s: f64) -> f64 {
+        if self.density_rad_per_sqrt_s <= 0.0 || table_rate_radps.abs() <= TURNING_RADPS {
+            return 0.0;
+        }
+        self.density_rad_per_sqrt_s / dt_s.max(1e-9).sqrt() * rng.normal()
+    }
+}
+
 /// Angle, rate and acceleration of the platform about the true axis.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Kinematics {

@@ -220,6 +220,16 @@ impl Segment {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+
+    /// Its rows as a range.
+    pub fn range(&self) -> core::ops::Range<usize> {
+        self.start..self.end
+    }
+}
+
+/// The rows of [`segments`] as ranges.
+pub fn segment_ranges(t_s: &[f64], dt_s: f64) -> Vec<core::ops::Range<usize>> {
+    segments(t_s, dt_s).iter().map(Segment::range).collect()
 }
 
 /// An interval longer than this many nominal sample periods is a gap

@@ -19,12 +19,17 @@ pub struct ChannelAllan {
 }
 
 /// Computes all six channels of `rec` (the accelerometers of a gyro-only
-/// recording are left out).
+/// recording are left out; no Allan difference straddles a gap).
 pub fn compute(rec: &Recording) -> Vec<ChannelAllan> {
     let tau0 = rec.dt_s();
+    let segs: Vec<_> = rec
+        .segments()
+        .iter()
+        .map(recording::Segment::range)
+        .collect();
     (0..if rec.gyro_only { 3 } else { 6 })
         .map(|c| {
-            let (points, fit) = fit_channel(&rec.channel(c), tau0);
+            let (points, fit) = fit_channel(&rec.channel(c), tau0, &segs);
             ChannelAllan {
                 name: CHANNELS[c],
                 points,

@@ -111,6 +111,17 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             "  {name:<14} {}; whitened Q({lags}) = {q:.0} ({verdict}; white is {lags} +- {sd:.0})",
             crate::allan::describe(ch, &a),
         );
+        if let Some(i) = d.findings.iter().position(|f| {
+            f.effect == hal_sim::catalogue::EffectId::UntrackedTableMotion
+                && f.channels.contains(&ch)
+        }) {
+            let _ = writeln!(
+                o,
+                "  {:<14} (white: the sensor's own, as the quieter cross axis reads; the table's untracked motion is taken out of it: finding {})",
+                "",
+                i + 1
+            );
+        }
     }
     let _ = writeln!(o, "\nwhere the nominal residual is (rms, deg/h and ug):");
     let _ = write!(o, "  {:<14}", "");
