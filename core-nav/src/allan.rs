@@ -136,7 +136,10 @@ pub fn oadev_segments<T: Real>(
 }
 
 /// The sum of squared overlapping second differences of `y`'s `m`-sums
-/// (about `mean`) and their count; `None` when `2m > N`.
+/// (about `mean`) and their count; `None` when `2m > N`. The `m`-sums are
+/// sliding sums, recomputed every 4096 steps (or every `16 m`, so that a
+/// recompute's `2m` additions stay an eighth of the steps between them)
+/// so that rounding does not build up.
 fn second_differences<T: Real>(y: &[T], m: usize, mean: f64) -> Option<(f64, usize)> {
     let n = y.len();
     if m == 0 || 2 * m > n {
@@ -148,14 +151,27 @@ fn second_differences<T: Real>(y: &[T], m: usize, mean: f64) -> Option<(f64, usi
     let mut s1 = window(0);
     let mut s2 = window(m);
     let mut acc = 0.0;
+    // The three samples each step adds and drops, as slices: no bounds
+    // test in the loop (`terms + 2m - 1 = n`).
+    let (lo, mid, hi) = (
+        y.get(..terms)?,
+        y.get(m..m + terms)?,
+        y.get(2 * m..2 * m + terms - 1)?,
+    );
+    let every = 4096usize.max(16 * m);
     for i in 0..terms {
         if i > 0 {
-            if i % 4096 == 0 {
+            if i % every == 0 {
                 s1 = window(i);
                 s2 = window(i + m);
             } else {
-                s1 += at(i + m - 1) - at(i - 1);
-                s2 += at(i + 2 * m - 1) - at(i + m - 1);
+                let (out1, mid1, in2) = (
+                    lo.get(i - 1).map_or(0.0, |v| v.to_f64()),
+                    mid.get(i - 1).map_or(0.0, |v| v.to_f64()),
+                    hi.get(i - 1).map_or(0.0, |v| v.to_f64()),
+                );
+                s1 += (mid1 - mean) - (out1 - mean);
+                s2 += (in2 - mean) - (mid1 - mean);
             }
         }
         let d = s2 - s1;

@@ -122,7 +122,7 @@ pub fn harmonics_all(res: &[&[f64]], theta: &[f64], kmax: usize) -> Vec<Vec<f64>
 pub const PART_LABELS: [&str; 4] = ["table still", "turning +", "turning -", "rate changing"];
 
 /// Locates the nominal residual.
-pub fn locate(p: &Prediction, res: &[Vec<f64>; 6], dt: f64) -> Locate {
+pub fn locate(p: &Prediction, parts: &[usize], res: &[Vec<f64>; 6], dt: f64) -> Locate {
     let n = p.t_s.len();
     let labels = [
         PART_LABELS[0],
@@ -133,7 +133,6 @@ pub fn locate(p: &Prediction, res: &[Vec<f64>; 6], dt: f64) -> Locate {
         "second half",
     ];
     let mut splits = vec![];
-    let parts = parts(p);
     for (li, label) in labels.iter().enumerate() {
         let sel: Vec<usize> = (0..n)
             .filter(|&r| match li {
@@ -282,6 +281,7 @@ fn resid_ss(x: &[DVector<f64>], y: &DVector<f64>) -> f64 {
 /// as the findings.
 pub fn unexplained(
     p: &Prediction,
+    parts: &[usize],
     res: &[Vec<f64>],
     noise: &[Noise],
     len: usize,
@@ -295,25 +295,31 @@ pub fn unexplained(
     // Candidate signatures: (where, columns).
     let mut groups: Vec<(String, Vec<Vec<f64>>)> = vec![];
     if span >= 0.999 * core::f64::consts::TAU {
-        for k in 1..=6 {
-            let kf = k as f64;
-            groups.push((
-                format!("{k}x table revolution harmonic"),
-                vec![
-                    theta.iter().map(|t| (kf * t).cos()).collect(),
-                    theta.iter().map(|t| (kf * t).sin()).collect(),
-                ],
-            ));
+        let mut cols: Vec<[Vec<f64>; 2]> = (0..6)
+            .map(|_| [Vec::with_capacity(n), Vec::with_capacity(n)])
+            .collect();
+        for t in &theta {
+            // cos / sin of k theta by the angle-addition recurrence.
+            let (s1, c1) = t.sin_cos();
+            let (mut s, mut c) = (s1, c1);
+            for [cc, ss] in &mut cols {
+                cc.push(c);
+                ss.push(s);
+                (s, c) = (s * c1 + c * s1, c * c1 - s * s1);
+            }
+        }
+        for (k, [c, s]) in cols.into_iter().enumerate() {
+            groups.push((format!("{}x table revolution harmonic", k + 1), vec![c, s]));
         }
     }
-    let parts = parts(p);
     for (pi, label) in [
         (1, "while turning +"),
         (2, "while turning -"),
         (3, "while the rate changes"),
     ] {
-        let c: Vec<f64> = (0..n)
-            .map(|r| f64::from(u8::from(parts[r] == pi)))
+        let c: Vec<f64> = parts
+            .iter()
+            .map(|q| f64::from(u8::from(*q == pi)))
             .collect();
         let cnt = c.iter().sum::<f64>();
         if cnt > 0.0 && cnt < n as f64 {

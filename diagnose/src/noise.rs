@@ -204,12 +204,14 @@ fn prior(phi: f64, lambda: f64) -> f64 {
 /// variance `r` (absolute units).
 fn loglik_q(z: &[f64], phi: f64, lambda: f64, r: f64, quant: f64) -> f64 {
     let g = gains3(phi, lambda, quant / r, z.len());
-    let (mut sum, mut logdet) = (0.0, 0.0);
-    g.run(z, |e, s| {
-        sum += e * e / s;
-        logdet += s.ln();
-    });
+    let mut sum = 0.0;
+    g.run(z, |e, s| sum += e * e / s);
     let n = z.len() as f64;
+    // The innovation variances change until the filter is steady, then
+    // hold the last one: their log-determinant without a log per block.
+    let steady = g.s.last().copied().unwrap_or(1.0);
+    let logdet =
+        g.s.iter().map(|s| s.ln()).sum::<f64>() + (n - g.s.len() as f64).max(0.0) * steady.ln();
     -0.5 * (sum / r + n * r.ln() + logdet + n * (2.0 * core::f64::consts::PI).ln())
 }
 
@@ -279,9 +281,9 @@ pub fn fit_white(z: &[f64], block_s: f64, quant: f64) -> Noise {
 }
 
 /// Fits white + Gauss-Markov by maximum likelihood: a grid over the
-/// correlation time (half-decades from two blocks to 1e5 s, and a random
-/// walk) and the variance ratio (half-decades), refined around the best
-/// point (tenth-decades). `r` is concentrated out.
+/// correlation time (decades from two blocks to 1e5 s, and a random walk)
+/// and the variance ratio (decades), refined around the best point
+/// (tenth-decades, half a decade either way). `r` is concentrated out.
 pub fn fit(z: &[f64], block_s: f64, quant: f64) -> Noise {
     let start = fit_plain(z, block_s);
     if quant > 0.0 {
@@ -300,9 +302,10 @@ pub fn fit(z: &[f64], block_s: f64, quant: f64) -> Noise {
 fn fit_plain(z: &[f64], block_s: f64) -> Noise {
     let mut best = fit_white(z, block_s, 0.0);
     // The Gauss-Markov part must be correlated over at least two blocks:
-    // shorter, it is white noise by another name.
-    let mut taus: Vec<f64> = (0..=20)
-        .map(|i| 2.0 * block_s * 10f64.powf(0.5 * f64::from(i)))
+    // shorter, it is white noise by another name. Whole decades first; the
+    // refinement below searches half a decade either way of the best.
+    let mut taus: Vec<f64> = (0..=10)
+        .map(|i| 2.0 * block_s * 10f64.powi(i))
         .filter(|t| *t <= 1e5)
         .collect();
     taus.push(f64::INFINITY);
@@ -328,8 +331,8 @@ fn fit_plain(z: &[f64], block_s: f64) -> Noise {
         }
     };
     for &tau in &taus {
-        for j in 0..=18 {
-            let lambda = 10f64.powf(-9.0 + 0.5 * f64::from(j));
+        for j in 0..=9 {
+            let lambda = 10f64.powi(-9 + j);
             try_point(tau, lambda, &mut best);
         }
     }
@@ -337,7 +340,7 @@ fn fit_plain(z: &[f64], block_s: f64) -> Noise {
         // Refine: tenth-decades around the grid point.
         let (t0, l0) = (best.tau_s(), best.lambda);
         for i in -5..=5 {
-            for j in -6..=6 {
+            for j in -7..=7 {
                 let tau = if t0.is_finite() {
                     t0 * 10f64.powf(0.1 * f64::from(i))
                 } else if i == 0 {

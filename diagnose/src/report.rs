@@ -299,9 +299,10 @@ pub(super) fn report(
         }
         seen.push(c.id);
     }
-    let locate = locate::locate(p, &res_before, dt);
+    let part = locate::parts(p);
+    let locate = locate::locate(p, &part, &res_before, dt);
     let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
-    let unexplained = locate::unexplained(p, &block_res, &noise_final, len, ln_n);
+    let unexplained = locate::unexplained(p, &part, &block_res, &noise_final, len, ln_n);
 
     Diagnosis {
         recording: name.to_string(),

@@ -351,6 +351,11 @@ pub fn inject(
         EffectId::BiasInstability => {
             c.imu.gyro.bias_instability = g.gyro.bias_instability * mag;
             c.imu.gyro.bi_tau_s = g.gyro.bi_tau_s;
+            // The wander hidden is the gyros' alone: the whole sensor's
+            // accelerometer wander would be named for it.
+            c.imu.accel.bias_instability = 0.0;
+            c.imu.accel.rrw = 0.0;
+            c.imu.gyro.rrw = 0.0;
             Ok(())
         }
         EffectId::TemperatureBias => {
