@@ -135,13 +135,16 @@ impl Design {
                 }
             })
             .collect();
-        // The encoder's quantisation at a block edge, per channel: the
-        // quantum is the smallest step between reads; its error is uniform
-        // (q^2 / 12), seen through the table axis over the block length.
+        // The encoder track's error at a block edge, per channel: the
+        // encoder's quantisation (the quantum is the smallest step between
+        // reads; its error uniform, q^2 / 12) or, where the track's pieces
+        // miss the reads by more (motion their shapes cannot follow), the
+        // track's own misfit; seen through the table axis over the block.
         let q_enc = encoder_quantum(p.track.angles());
+        let edge_var = (q_enc * q_enc / 12.0).max(p.track.misfit_var());
         let quant: [f64; 6] = std::array::from_fn(|ch| {
             if ch < 3 {
-                (p.k[ch] / block_s).powi(2) * q_enc * q_enc / 12.0
+                (p.k[ch] / block_s).powi(2) * edge_var
             } else {
                 0.0
             }

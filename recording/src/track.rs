@@ -228,6 +228,19 @@ impl EncoderTrack {
         }
     }
 
+    /// The track's own error variance at a read, rad^2: the mean square of
+    /// the reads' misfit from the pieces through them (the encoder's
+    /// rounding and any motion the pieces' shapes cannot follow), at least
+    /// the rounding's `q^2 / 12` it was built with.
+    pub fn misfit_var(&self) -> f64 {
+        let (ss, n) = self
+            .pieces
+            .iter()
+            .flat_map(|p| p.res)
+            .fold((0.0, 0usize), |(s, k), r| (s + r * r, k + 1));
+        (ss / n.max(1) as f64).max(self.read_var)
+    }
+
     /// The track through `rec`'s encoder reads (the quantum found from the
     /// steps between reads).
     pub fn of(rec: &crate::Recording) -> Self {
