@@ -485,7 +485,7 @@ fn blind_study_runs_and_its_mde_is_calibrated() {
     assert_eq!(s.confusion["lever_arm"]["lever_arm"], 1);
     let md = rins::study::markdown(&s);
     assert!(
-        md.contains("| lever_arm |") && md.contains("false alarms on 2 null runs: 0"),
+        md.contains("| lever_arm |") && md.contains("false alarms on 2 null runs with the whole sensor (named beyond the profile's own terms at up to 4x): 0"),
         "{md}"
     );
     assert!(serde_json::to_string(&s).unwrap().contains("false_alarms"));
