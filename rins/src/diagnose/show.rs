@@ -31,6 +31,10 @@ fn eng_param(name: &str, v: f64) -> String {
         format!("{:.4} deg/h per m/s^2", v * deg * 3600.0)
     } else if name.ends_with("radps_per_degc") {
         format!("{:.4} deg/h per degC", v * deg * 3600.0)
+    } else if name.ends_with("_rad_per_sqrt_s") {
+        format!("{:.3} deg/sqrt(h)", v * deg * 60.0)
+    } else if name.ends_with("_hz") {
+        format!("{v:.1} Hz")
     } else {
         format!("{v:.4e}")
     }
