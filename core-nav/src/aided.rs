@@ -32,7 +32,7 @@
 
 use crate::attitude::quat_to_dcm;
 use crate::earth::{earth_rate_n, transport_rate_n, GeoPoint};
-use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma};
+use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma, Workspace};
 use crate::real::Real;
 use crate::strapdown::{ImuSample, Strapdown, StrapdownConfig};
 use crate::table::{q_s_b, Axis, TableAngle};
@@ -58,6 +58,11 @@ pub const ZUPT_EVERY: u32 = 10;
 /// dynamics change little in 0.1 s). A fix or zero-velocity update
 /// propagates what is pending first.
 pub const PREDICT_BATCH: u32 = 10;
+
+/// Navigation states kept for fixes applied at their time of validity
+/// (one a sample: 0.64 s at 100 Hz, beyond a receiver's and a link's
+/// latency).
+pub const HISTORY: usize = 64;
 
 /// The share of a fix's reported variance the filter takes as correlated
 /// over a minute (the rest white): automotive receivers' errors are half
@@ -207,9 +212,44 @@ pub struct AidedNav<T: Real> {
     filled: usize,
     steps: u32,
     still: bool,
-    pending: Option<GnssFix>,
+    pending: Option<(GnssFix, Option<u64>)>,
+    /// The last [`HISTORY`] states (a ring, by sample).
+    past: [Past<T>; HISTORY],
+    past_head: usize,
     /// What has been counted.
     pub counts: AidedCounts,
+}
+
+/// A stored navigation state: what a fix's innovation needs at its time
+/// of validity.
+#[derive(Clone, Copy, Debug)]
+struct Past<T: Real> {
+    t_us: u64,
+    p_n: Vector3<T>,
+    v_n: Vector3<T>,
+    c_b_n: Matrix3<T>,
+    w_ib_b: Vector3<T>,
+}
+
+impl<T: Real> Default for Past<T> {
+    fn default() -> Self {
+        Self {
+            t_us: u64::MAX,
+            p_n: Vector3::zeros(),
+            v_n: Vector3::zeros(),
+            c_b_n: Matrix3::identity(),
+            w_ib_b: Vector3::zeros(),
+        }
+    }
+}
+
+/// Why a fix with a time of validity was not taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FixAge {
+    /// Older than the stored states.
+    TooOld,
+    /// Later than the last sample.
+    FromTheFuture,
 }
 
 /// The table's rotation `c_s_b` (rad in, DCM out).
@@ -247,8 +287,68 @@ impl<T: Real> AidedNav<T> {
             steps: 0,
             still: false,
             pending: None,
+            past: [Past::default(); HISTORY],
+            past_head: 0,
             counts: AidedCounts::default(),
         })
+    }
+
+    /// A navigator not yet started (a placeholder at the origin that cannot
+    /// fail): [`Self::restart`] starts it in place.
+    pub fn placeholder(cfg: AidedConfig) -> Self {
+        let mut kf = Eskf::new(cfg.eskf, &cfg.initial);
+        kf.batch = PREDICT_BATCH;
+        Self {
+            nav: Strapdown::placeholder(),
+            kf,
+            cfg,
+            origin: OriginE7::default(),
+            lever_b: Vector3::from(cfg.antenna_b_m).map(T::lit),
+            window: [(T::zero(), Vector3::zeros()); ZUPT_WINDOW],
+            head: 0,
+            filled: 0,
+            steps: 0,
+            still: false,
+            pending: None,
+            past: [Past::default(); HISTORY],
+            past_head: 0,
+            counts: AidedCounts::default(),
+        }
+    }
+
+    /// Starts again in place, as [`Self::new`] would (on a board the
+    /// navigator is a static of 12 KiB: no copy of it is built on the
+    /// stack).
+    ///
+    /// # Errors
+    /// What [`Strapdown::new`] refuses (the navigator is left as it was).
+    #[inline(never)]
+    pub fn restart(
+        &mut self,
+        strapdown: StrapdownConfig,
+        origin: OriginE7,
+        q_b_n: &Quaternion<T>,
+        table: &TableAngle<T>,
+        first: &ImuSample<T>,
+        cfg: AidedConfig,
+    ) -> Result<(), NavError> {
+        let q_s_n = q_b_n * q_s_b(cfg.axis, table.rad);
+        self.nav = Strapdown::new(strapdown, origin.point(), Vector3::zeros(), q_s_n, first)?;
+        self.kf.reset(cfg.eskf, &cfg.initial);
+        self.kf.batch = PREDICT_BATCH;
+        self.cfg = cfg;
+        self.origin = origin;
+        self.lever_b = Vector3::from(cfg.antenna_b_m).map(T::lit);
+        self.window.fill((T::zero(), Vector3::zeros()));
+        self.head = 0;
+        self.filled = 0;
+        self.steps = 0;
+        self.still = false;
+        self.pending = None;
+        self.past.fill(Past::default());
+        self.past_head = 0;
+        self.counts = AidedCounts::default();
+        Ok(())
     }
 
     /// The mechanization (its state: position offsets, velocity, `q_s_n`).
@@ -261,11 +361,63 @@ impl<T: Real> AidedNav<T> {
         quat_to_dcm(&self.nav.state().q_s_n) * c_s_b(self.cfg.axis, table).transpose()
     }
 
-    /// Hands a fix over; the next [`Self::step`] uses it.
+    /// Hands a fix over; the next [`Self::step`] uses it as valid at that
+    /// step.
     pub fn gnss(&mut self, fix: &GnssFix) {
-        if self.pending.replace(*fix).is_some() {
+        if self.pending.replace((*fix, None)).is_some() {
             self.counts.fixes_replaced = self.counts.fixes_replaced.saturating_add(1);
         }
+    }
+
+    /// Hands over a fix valid at `t_valid_us` (the mechanization's clock),
+    /// in the past: the next [`Self::step`] forms its innovation from the
+    /// state stored for the sample nearest that time and corrects the
+    /// present state with it (the error state changes little over the
+    /// latency: position by the velocity error times it).
+    ///
+    /// # Errors
+    /// A time older than the stored states, or after the last sample.
+    pub fn gnss_at(&mut self, fix: &GnssFix, t_valid_us: u64) -> Result<(), FixAge> {
+        let now = self.nav.state().t_us;
+        if t_valid_us > now {
+            return Err(FixAge::FromTheFuture);
+        }
+        let oldest = self
+            .past
+            .iter()
+            .map(|p| p.t_us)
+            .filter(|t| *t != u64::MAX)
+            .min()
+            .unwrap_or(now);
+        if t_valid_us + self.half_period_us() < oldest {
+            return Err(FixAge::TooOld);
+        }
+        if self.pending.replace((*fix, Some(t_valid_us))).is_some() {
+            self.counts.fixes_replaced = self.counts.fixes_replaced.saturating_add(1);
+        }
+        Ok(())
+    }
+
+    /// Half the last sample interval, µs (how far from a stored state a
+    /// time of validity may be).
+    fn half_period_us(&self) -> u64 {
+        let a = self.past.get(self.past_head.wrapping_sub(1) % HISTORY);
+        let b = self.past.get(self.past_head.wrapping_sub(2) % HISTORY);
+        match (a, b) {
+            (Some(a), Some(b)) if a.t_us != u64::MAX && b.t_us != u64::MAX => {
+                a.t_us.saturating_sub(b.t_us) / 2
+            }
+            _ => 0,
+        }
+    }
+
+    /// The stored state nearest `t_us`.
+    fn past_at(&self, t_us: u64) -> Option<Past<T>> {
+        self.past
+            .iter()
+            .filter(|p| p.t_us != u64::MAX)
+            .min_by_key(|p| p.t_us.abs_diff(t_us))
+            .copied()
     }
 
     /// The fix's antenna position as offsets from the origin in the
@@ -300,6 +452,32 @@ impl<T: Real> AidedNav<T> {
         table: &TableAngle<T>,
         table_rate: T,
     ) -> Result<AidedStep<T>, NavError> {
+        self.step_opt(raw, table, table_rate, None)
+    }
+
+    /// [`Self::step`] with the filter's workspace passed in (a board's
+    /// static: no 10 KiB of scratch on its stack).
+    ///
+    /// # Errors
+    /// As [`Self::step`].
+    pub fn step_in(
+        &mut self,
+        raw: &ImuSample<T>,
+        table: &TableAngle<T>,
+        table_rate: T,
+        ws: &mut Workspace<T>,
+    ) -> Result<AidedStep<T>, NavError> {
+        self.step_opt(raw, table, table_rate, Some(ws))
+    }
+
+    #[inline(never)]
+    fn step_opt(
+        &mut self,
+        raw: &ImuSample<T>,
+        table: &TableAngle<T>,
+        table_rate: T,
+        mut ws: Option<&mut Workspace<T>>,
+    ) -> Result<AidedStep<T>, NavError> {
         let s = ImuSample {
             t_us: raw.t_us,
             w_is_s: self.kf.correct_gyro(&raw.w_is_s),
@@ -316,8 +494,15 @@ impl<T: Real> AidedNav<T> {
         let w_ie = earth_rate_n(e.sin_lat, e.cos_lat);
         let w_en = transport_rate_n(&st.v_n, e.r_m, e.r_n, e.height_m, e.sin_lat / e.cos_lat);
         let dt = T::lit(st.t_us.saturating_sub(t_prev) as f64 * 1e-6);
-        self.kf
-            .predict(&c_s_n, &(c_s_n * s.f_s), &w_ie, &w_en, &s.w_is_s, dt);
+        self.kf.predict_opt(
+            &c_s_n,
+            &(c_s_n * s.f_s),
+            &w_ie,
+            &w_en,
+            &s.w_is_s,
+            dt,
+            ws.as_deref_mut(),
+        );
 
         // The base's rotation and specific force, the table's removed.
         let csb = c_s_b(self.cfg.axis, table);
@@ -330,19 +515,35 @@ impl<T: Real> AidedNav<T> {
         self.filled = (self.filled + 1).min(ZUPT_WINDOW);
         self.steps = self.steps.wrapping_add(1);
 
+        let c_b_n = c_s_n * csb.transpose();
+        let here = Past {
+            t_us: st.t_us,
+            p_n: st.p_n,
+            v_n: st.v_n,
+            c_b_n,
+            w_ib_b,
+        };
+        if let Some(slot) = self.past.get_mut(self.past_head) {
+            *slot = here;
+        }
+        self.past_head = (self.past_head + 1) % HISTORY;
+
         let mut out = AidedStep::default();
         let mut corrected = false;
-        if let Some(fix) = self.pending.take() {
-            let c_b_n = c_s_n * csb.transpose();
-            out.fix = Some(self.use_fix(&fix, &c_b_n, &w_ib_b));
+        if let Some((fix, at)) = self.pending.take() {
+            let then = at.and_then(|t| self.past_at(t)).unwrap_or(here);
+            out.fix = Some(self.use_fix(&fix, &then, ws.as_deref_mut()));
             corrected = true;
         }
-        if self.cfg.zupt && self.steps.is_multiple_of(ZUPT_EVERY) {
+        // Not in a step that took a fix: its velocity update measured the
+        // same thing, and the two together would double the step's worst
+        // case on a board (a propagation and nine scalar updates).
+        if self.cfg.zupt && self.steps.is_multiple_of(ZUPT_EVERY) && !corrected {
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
             if self.still {
                 let z = -st.v_n;
                 let sigma = Vector3::repeat(T::lit(ZUPT_SIGMA_MPS));
-                if self.kf.update_velocity(&z, &sigma).is_ok() {
+                if self.kf.update_velocity_opt(&z, &sigma, ws).is_ok() {
                     self.counts.zupts = self.counts.zupts.saturating_add(1);
                     out.zupt = true;
                 }
@@ -359,15 +560,20 @@ impl<T: Real> AidedNav<T> {
         Ok(out)
     }
 
-    /// Position and velocity updates from `fix` (antenna at `c_b_n l_b`,
-    /// its velocity `v + c_b_n (w_ib_b x l_b)`); the white share of the
+    /// Position and velocity updates from `fix` against the state `at` its
+    /// time of validity (antenna at `c_b_n l_b`, its velocity
+    /// `v + c_b_n (w_ib_b x l_b)`); the white share of the
     /// reported variance is the measurement's, the rest the filter's
     /// correlated-error state. Returns (NIS, components used).
-    fn use_fix(&mut self, fix: &GnssFix, c_b_n: &Matrix3<T>, w_ib_b: &Vector3<T>) -> (T, u8) {
-        let st = *self.nav.state();
-        let l_n = c_b_n * self.lever_b;
-        let zp = self.fix_position_n(fix) - (st.p_n + l_n);
-        let v_ant = st.v_n + c_b_n * w_ib_b.cross(&self.lever_b);
+    fn use_fix(
+        &mut self,
+        fix: &GnssFix,
+        at: &Past<T>,
+        mut ws: Option<&mut Workspace<T>>,
+    ) -> (T, u8) {
+        let l_n = at.c_b_n * self.lever_b;
+        let zp = self.fix_position_n(fix) - (at.p_n + l_n);
+        let v_ant = at.v_n + at.c_b_n * at.w_ib_b.cross(&self.lever_b);
         let v_fix = Vector3::from(fix.v_n_mmps).map(|v| T::lit(f64::from(v) * 1e-3));
         let zv = v_fix - v_ant;
         let white = libm::sqrt(1.0 - GNSS_CORR_SHARE) * 1e-3;
@@ -385,8 +591,10 @@ impl<T: Real> AidedNav<T> {
                 used += r.used;
             }
         };
-        add(self.kf.update_position(&zp, &l_n, &sp));
-        add(self.kf.update_velocity(&zv, &sv));
+        add(self
+            .kf
+            .update_position_opt(&zp, &l_n, &sp, ws.as_deref_mut()));
+        add(self.kf.update_velocity_opt(&zv, &sv, ws));
         if used > 0 {
             self.counts.fixes_used = self.counts.fixes_used.saturating_add(1);
         }

@@ -194,6 +194,21 @@ impl PhaseAccumulator {
         }
     }
 
+    /// Starts again in place, as [`Self::new`] would (no 4 KiB value on a
+    /// board's stack).
+    pub fn reset(&mut self, commanded_radps: f64, axis: Axis) {
+        self.commanded_radps = commanded_radps;
+        self.axis = axis;
+        self.total = Sums::default();
+        self.at_turn = Sums::default();
+        self.turns_done = 0;
+        self.start_angle = None;
+        self.blocks.fill(Vector3::zeros());
+        self.blocks2.fill(Vector3::zeros());
+        self.block_n.fill(0);
+        self.block_len_us = 1_000_000;
+    }
+
     /// Adds one sample: time (µs), gyro (rad/s) and accel (m/s^2) in `s`,
     /// and the table angle at that time.
     ///

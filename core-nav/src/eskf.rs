@@ -96,6 +96,40 @@ pub type Cov<T> = SMatrix<T, N, N>;
 /// An error-state vector (or a measurement row).
 pub type State<T> = SVector<T, N>;
 
+/// Scratch for a propagation: two `N x N` matrices (10 KiB in f32). A
+/// board keeps one in a static and passes it in (`*_in` methods), so the
+/// propagation takes none of the stack; the other methods make one on the
+/// stack when they propagate.
+#[derive(Clone, Debug)]
+pub struct Workspace<T: Real> {
+    b: Cov<T>,
+    w: Cov<T>,
+}
+
+impl<T: Real> Workspace<T> {
+    /// Zeros.
+    pub fn new() -> Self {
+        Self {
+            b: Cov::zeros(),
+            w: Cov::zeros(),
+        }
+    }
+}
+
+impl<T: Real> Default for Workspace<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Workspace<f32> {
+    /// Zeros, for a static.
+    pub const ZERO: Self = Self {
+        b: Cov::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; N])),
+        w: Cov::from_array_storage(nalgebra::ArrayStorage([[0.0; N]; N])),
+    };
+}
+
 /// The sensor's noise and bias model the filter assumes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EskfConfig {
@@ -211,6 +245,27 @@ impl<T: Real> Eskf<T> {
     /// A filter with diagonal initial covariance (biases at their initial
     /// sigma).
     pub fn new(cfg: EskfConfig, init: &InitialSigma) -> Self {
+        let mut e = Self {
+            p: Cov::zeros(),
+            dx: State::zeros(),
+            bias_g: Vector3::zeros(),
+            bias_a: Vector3::zeros(),
+            gyro_m: Matrix3::zeros(),
+            accel_m: Matrix3::zeros(),
+            gnss_bias: Vector3::zeros(),
+            cfg,
+            pending: Pending::default(),
+            batch: 1,
+            rejected: 0,
+            refused: 0,
+        };
+        e.reset(cfg, init);
+        e
+    }
+
+    /// Starts again in place (no 5 KiB covariance built on the stack): as
+    /// [`Self::new`] would, keeping [`Self::batch`].
+    pub fn reset(&mut self, cfg: EskfConfig, init: &InitialSigma) {
         let mut d = State::<T>::zeros();
         let block = |d: &mut State<T>, i: usize, v: Vector3<f64>| {
             d.fixed_rows_mut::<3>(i)
@@ -240,21 +295,18 @@ impl<T: Real> Eskf<T> {
         }
         let [gh, gv] = cfg.gnss_corr_sigma_m;
         block(&mut d, I_GP, Vector3::new(gh, gh, gv));
-        let p = Cov::<T>::from_diagonal(&d);
-        Self {
-            p,
-            dx: State::zeros(),
-            bias_g: Vector3::zeros(),
-            bias_a: Vector3::zeros(),
-            gyro_m: Matrix3::zeros(),
-            accel_m: Matrix3::zeros(),
-            gnss_bias: Vector3::zeros(),
-            cfg,
-            pending: Pending::default(),
-            batch: 1,
-            rejected: 0,
-            refused: 0,
-        }
+        self.p.fill(T::zero());
+        self.p.set_diagonal(&d);
+        self.dx = State::zeros();
+        self.bias_g = Vector3::zeros();
+        self.bias_a = Vector3::zeros();
+        self.gyro_m = Matrix3::zeros();
+        self.accel_m = Matrix3::zeros();
+        self.gnss_bias = Vector3::zeros();
+        self.cfg = cfg;
+        self.pending = Pending::default();
+        self.rejected = 0;
+        self.refused = 0;
     }
 
     /// The continuous-time system matrix at the current state: `c_s_n`,
@@ -278,6 +330,15 @@ impl<T: Real> Eskf<T> {
     /// their integrals.
     fn system_integral(&self, q: &Pending<T>) -> Cov<T> {
         let mut f = Cov::<T>::zeros();
+        system_integral_into(&self.cfg, q, &mut f);
+        f
+    }
+}
+
+/// `F` integrated over the pending interval, into `f`.
+fn system_integral_into<T: Real>(cfg: &EskfConfig, q: &Pending<T>, f: &mut Cov<T>) {
+    {
+        f.fill(T::zero());
         // Element by element through `get_mut` (a view's bounds assert
         // would link a panic path on the board).
         let put = |f: &mut Cov<T>, r: usize, c: usize, m: &Matrix3<T>| {
@@ -289,12 +350,12 @@ impl<T: Real> Eskf<T> {
                 }
             }
         };
-        put(&mut f, I_P, I_V, &(Matrix3::identity() * q.dt));
-        put(&mut f, I_V, I_PHI, &(-skew(&q.f_n)));
-        put(&mut f, I_V, I_V, &(-skew(&(q.w_ie * T::lit(2.0) + q.w_en))));
-        put(&mut f, I_V, I_BA, &(-q.c_s_n));
-        put(&mut f, I_PHI, I_PHI, &(-skew(&(q.w_ie + q.w_en))));
-        put(&mut f, I_PHI, I_BG, &(-q.c_s_n));
+        put(f, I_P, I_V, &(Matrix3::identity() * q.dt));
+        put(f, I_V, I_PHI, &(-skew(&q.f_n)));
+        put(f, I_V, I_V, &(-skew(&(q.w_ie * T::lit(2.0) + q.w_en))));
+        put(f, I_V, I_BA, &(-q.c_s_n));
+        put(f, I_PHI, I_PHI, &(-skew(&(q.w_ie + q.w_en))));
+        put(f, I_PHI, I_BG, &(-q.c_s_n));
         // d(phi')/d(M_rc) = -c_s_n e_r w_c: a 3x3 block per row of M.
         // d(dv')/d(Ma_rc) = -c_s_n e_r f_c likewise.
         for (i0, m) in [(I_PHI, &q.cw), (I_V, &q.cf)] {
@@ -314,12 +375,13 @@ impl<T: Real> Eskf<T> {
                 Matrix3::zeros()
             }
         };
-        put(&mut f, I_BG, I_BG, &gm(self.cfg.gyro_bias_tau_s));
-        put(&mut f, I_BA, I_BA, &gm(self.cfg.accel_bias_tau_s));
-        put(&mut f, I_GP, I_GP, &gm(self.cfg.gnss_corr_tau_s));
-        f
+        put(f, I_BG, I_BG, &gm(cfg.gyro_bias_tau_s));
+        put(f, I_BA, I_BA, &gm(cfg.accel_bias_tau_s));
+        put(f, I_GP, I_GP, &gm(cfg.gnss_corr_tau_s));
     }
+}
 
+impl<T: Real> Eskf<T> {
     /// Predicts over `dt_s` (see [`Self::system`] for the arguments). The
     /// system's integrals are gathered over [`Self::batch`] predictions
     /// and then propagated at once ([`Self::propagate`]; an update
@@ -337,24 +399,76 @@ impl<T: Real> Eskf<T> {
         w_is_s: &Vector3<T>,
         dt_s: T,
     ) {
+        self.predict_opt(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s, None);
+    }
+
+    /// [`Self::predict`] with the board's workspace.
+    #[allow(clippy::too_many_arguments)]
+    pub fn predict_in(
+        &mut self,
+        c_s_n: &Matrix3<T>,
+        f_n: &Vector3<T>,
+        w_ie_n: &Vector3<T>,
+        w_en_n: &Vector3<T>,
+        w_is_s: &Vector3<T>,
+        dt_s: T,
+        ws: &mut Workspace<T>,
+    ) {
+        self.predict_opt(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s, Some(ws));
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn predict_opt(
+        &mut self,
+        c_s_n: &Matrix3<T>,
+        f_n: &Vector3<T>,
+        w_ie_n: &Vector3<T>,
+        w_en_n: &Vector3<T>,
+        w_is_s: &Vector3<T>,
+        dt_s: T,
+        ws: Option<&mut Workspace<T>>,
+    ) {
         self.pending.add(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s);
         if self.pending.n >= self.batch.max(1) {
-            self.propagate();
+            self.prop(ws);
+        }
+    }
+
+    /// Propagates what is pending, in `ws` or a workspace of its own.
+    fn prop(&mut self, ws: Option<&mut Workspace<T>>) {
+        match ws {
+            Some(w) => self.propagate_in(w),
+            None => self.propagate(),
         }
     }
 
     /// Propagates the covariance over the pending interval (nothing when
-    /// none is pending).
+    /// none is pending), its scratch on the stack.
     pub fn propagate(&mut self) {
+        if self.pending.n == 0 {
+            return;
+        }
+        let mut ws = Workspace::new();
+        self.propagate_in(&mut ws);
+    }
+
+    /// [`Self::propagate`] in the board's workspace.
+    #[inline(never)]
+    pub fn propagate_in(&mut self, ws: &mut Workspace<T>) {
         if self.pending.n == 0 {
             return;
         }
         let q = self.pending;
         self.pending = Pending::default();
         let dt_s = q.dt;
-        let ft = self.system_integral(&q);
+        // The workspace: `B`, and `w`, which holds `F` and then `P B^T`.
+        let Workspace { b, w } = ws;
+        system_integral_into(&self.cfg, &q, w);
         // Phi = I + B, B = A + A^2 / 2 (A sparse: ~80 of 729 entries).
-        let b = ft + mul_bt(&ft, &ft.transpose()) * T::lit(0.5);
+        mul_into(b, w, w);
+        for (bij, fij) in b.iter_mut().zip(w.iter()) {
+            *bij = *fij + *bij * T::lit(0.5);
+        }
         let bias_q = |sigma: f64, tau: f64| {
             if tau > 0.0 {
                 2.0 * sigma * sigma / tau
@@ -384,34 +498,75 @@ impl<T: Real> Eskf<T> {
             }
         }
         // Phi P Phi^T = P + B P + (B P)^T + B P B^T, with B's zeros
-        // skipped: P B^T = (B P)^T (P symmetric), then B P B^T = (B P) B^T.
-        let mt = mul_bt(&self.p, &b);
-        let x = mul_bt(&mt.transpose(), &b);
+        // skipped: P B^T = (B P)^T (P symmetric), then B P B^T = (B P) B^T,
+        // into the workspace (F's slot takes B P B^T).
         // The error estimate propagates too (it is zero in closed loop), and
         // the receiver error's estimate decays.
-        self.dx += b * self.dx;
-        // P + M + M^T + X + Q_d, element by element, X symmetrised; each
-        // pair summed so (i, j) and (j, i) get the same bits.
-        let half = T::lit(0.5);
-        let (mtt, xt) = (mt.transpose(), x.transpose());
-        for (((col, m1), m2), (x1, x2)) in self
-            .p
-            .as_mut_slice()
-            .as_chunks_mut::<N>()
+        // By reference: `b * dx` would copy B (5 KiB) into the call.
+        #[allow(clippy::op_ref)]
+        let b_dx = &*b * self.dx;
+        self.dx += b_dx;
+        // B transposed in place: its rows become contiguous columns.
+        b.transpose_mut();
+        // P B^T (= (B P)^T, P symmetric), B's zeros skipped, into `w`.
+        let mt = w;
+        mul_into(mt, &self.p, b);
+        // P + M + M^T + X + Q_d, element by element, with X = B P B^T
+        // summed on the fly over B's nonzeros (X[r, c] = sum_k B[c, k]
+        // mt[k, r]), once per pair (i <= j: X is symmetric) and the same
+        // sum added to (i, j) and (j, i), so P stays symmetric to the bit.
+        let mut nz = [[0u8; N]; N];
+        let mut nz_len = [0usize; N];
+        for ((col, list), len) in b
+            .as_slice()
+            .as_chunks::<N>()
             .0
-            .iter_mut()
-            .zip(mt.as_slice().as_chunks::<N>().0.iter())
-            .zip(mtt.as_slice().as_chunks::<N>().0.iter())
-            .zip(
-                x.as_slice()
-                    .as_chunks::<N>()
-                    .0
-                    .iter()
-                    .zip(xt.as_slice().as_chunks::<N>().0.iter()),
-            )
+            .iter()
+            .zip(nz.iter_mut())
+            .zip(nz_len.iter_mut())
         {
-            for ((((pij, a), b), c), d) in col.iter_mut().zip(m1).zip(m2).zip(x1).zip(x2) {
-                *pij += (*a + *b) + (*c + *d) * half;
+            for (k, v) in col.iter().enumerate() {
+                if *v != T::zero() {
+                    if let Some(slot) = list.get_mut(*len) {
+                        *slot = k as u8;
+                        *len += 1;
+                    }
+                }
+            }
+        }
+        let (ms, bcols, mcols) = (
+            mt.as_slice(),
+            b.as_slice().as_chunks::<N>().0,
+            mt.as_slice().as_chunks::<N>().0,
+        );
+        let at = |s: &[T], i: usize| s.get(i).copied().unwrap_or_else(T::zero);
+        let ps = self.p.as_mut_slice();
+        for j in 0..N {
+            let (Some(bj), Some(list)) = (
+                bcols.get(j),
+                nz.get(j)
+                    .and_then(|l| l.get(..nz_len.get(j).copied().unwrap_or(0))),
+            ) else {
+                continue;
+            };
+            for (i, mi) in mcols.iter().enumerate().take(j + 1) {
+                let mut x = T::zero();
+                for &k in list {
+                    let k = usize::from(k);
+                    if let (Some(bv), Some(mv)) = (bj.get(k), mi.get(k)) {
+                        x += *bv * *mv;
+                    }
+                }
+                let (ij, ji) = (j * N + i, i * N + j);
+                let v = (at(ms, ij) + at(ms, ji)) + x;
+                if let Some(p) = ps.get_mut(ij) {
+                    *p += v;
+                }
+                if i != j {
+                    if let Some(p) = ps.get_mut(ji) {
+                        *p += v;
+                    }
+                }
             }
         }
         for (i, q) in qd.iter().enumerate() {
@@ -432,6 +587,17 @@ impl<T: Real> Eskf<T> {
     /// # Errors
     /// Non-finite `z`, `r` or row; `r` not positive.
     pub fn update_scalar(&mut self, h: &State<T>, z: T, r: T) -> Result<Option<T>, FilterError> {
+        self.update_scalar_opt(h, z, r, None)
+    }
+
+    #[inline(never)]
+    fn update_scalar_opt(
+        &mut self,
+        h: &State<T>,
+        z: T,
+        r: T,
+        ws: Option<&mut Workspace<T>>,
+    ) -> Result<Option<T>, FilterError> {
         if !(z.is_finite() && r.is_finite() && h.iter().all(|x| x.is_finite())) {
             self.refused += 1;
             return Err(FilterError::NonFinite);
@@ -440,8 +606,10 @@ impl<T: Real> Eskf<T> {
             self.refused += 1;
             return Err(FilterError::BadSigma);
         }
-        self.propagate();
-        let ph = self.p * h;
+        self.prop(ws);
+        // By reference: `self.p * h` would copy P (5 KiB) onto the stack.
+        #[allow(clippy::op_ref)]
+        let ph = &self.p * h;
         let s = h.dot(&ph) + r;
         let innov = z - h.dot(&self.dx);
         let gate = T::lit(self.cfg.gate_sigma);
@@ -484,6 +652,7 @@ impl<T: Real> Eskf<T> {
         rows: [State<T>; 3],
         z: &Vector3<T>,
         sigma: &Vector3<T>,
+        mut ws: Option<&mut Workspace<T>>,
     ) -> Result<UpdateReport<T>, FilterError> {
         if !(z.iter().all(|x| x.is_finite()) && sigma.iter().all(|x| x.is_finite())) {
             self.refused += 1;
@@ -495,7 +664,7 @@ impl<T: Real> Eskf<T> {
         }
         let mut rep = UpdateReport::default();
         for ((h, zi), si) in rows.iter().zip(z.iter()).zip(sigma.iter()) {
-            match self.update_scalar(h, *zi, *si * *si)? {
+            match self.update_scalar_opt(h, *zi, *si * *si, ws.as_deref_mut())? {
                 Some(nis) => {
                     rep.nis += nis;
                     rep.used += 1;
@@ -519,6 +688,16 @@ impl<T: Real> Eskf<T> {
         l_n: &Vector3<T>,
         sigma: &Vector3<T>,
     ) -> Result<UpdateReport<T>, FilterError> {
+        self.update_position_opt(z, l_n, sigma, None)
+    }
+
+    pub(crate) fn update_position_opt(
+        &mut self,
+        z: &Vector3<T>,
+        l_n: &Vector3<T>,
+        sigma: &Vector3<T>,
+        ws: Option<&mut Workspace<T>>,
+    ) -> Result<UpdateReport<T>, FilterError> {
         let lx = -skew(l_n);
         let z = z - self.gnss_bias;
         let z = &z;
@@ -528,7 +707,7 @@ impl<T: Real> Eskf<T> {
             h.fixed_rows_mut::<3>(I_PHI).copy_from(&lrow.transpose());
             h.fixed_rows_mut::<3>(I_GP).copy_from(&unit::<T>(i));
         }
-        self.update_rows(rows, z, sigma)
+        self.update_rows(rows, z, sigma, ws)
     }
 
     /// GNSS velocity (or zero velocity): `z = v_meas - v` (NED, m/s), 1-sigma
@@ -541,11 +720,20 @@ impl<T: Real> Eskf<T> {
         z: &Vector3<T>,
         sigma: &Vector3<T>,
     ) -> Result<UpdateReport<T>, FilterError> {
+        self.update_velocity_opt(z, sigma, None)
+    }
+
+    pub(crate) fn update_velocity_opt(
+        &mut self,
+        z: &Vector3<T>,
+        sigma: &Vector3<T>,
+        ws: Option<&mut Workspace<T>>,
+    ) -> Result<UpdateReport<T>, FilterError> {
         let mut rows = [State::<T>::zeros(); 3];
         for (i, h) in rows.iter_mut().enumerate() {
             h.fixed_rows_mut::<3>(I_V).copy_from(&unit(i));
         }
-        self.update_rows(rows, z, sigma)
+        self.update_rows(rows, z, sigma, ws)
     }
 
     /// Hands the error estimate over: `(dp, dv, phi)` to add to the
@@ -664,30 +852,27 @@ impl<T: Real> Pending<T> {
     }
 }
 
-/// `src b^T`, skipping `b`'s zeros: column `i` of the product is the sum
-/// of `src`'s columns `k` weighted by `b[(i, k)]`. The error dynamics are
-/// sparse, so this is a few thousand multiply-adds instead of a dense
-/// product's 19,683 (27^3).
-fn mul_bt<T: Real>(src: &Cov<T>, b: &Cov<T>) -> Cov<T> {
-    let mut out = Cov::<T>::zeros();
-    // Row i of b is column i of b^T (contiguous).
-    let bt = b.transpose();
-    for (out_col, b_row) in out
+/// `out = a c`, column by column (`out[:, i] = sum_k c[k, i] a[:, k]`, k
+/// ascending), zeros of `c` skipped: with `c = b^T` the sums of `a b^T`
+/// in the order the filter has always summed them.
+fn mul_into<T: Real>(out: &mut Cov<T>, a: &Cov<T>, c: &Cov<T>) {
+    out.fill(T::zero());
+    let cols = c.as_slice().as_chunks::<N>().0;
+    for (out_col, c_col) in out
         .as_mut_slice()
         .as_chunks_mut::<N>()
         .0
         .iter_mut()
-        .zip(bt.as_slice().as_chunks::<N>().0.iter())
+        .zip(cols)
     {
-        for (&v, src_col) in b_row.iter().zip(src.as_slice().as_chunks::<N>().0.iter()) {
+        for (&v, a_col) in c_col.iter().zip(a.as_slice().as_chunks::<N>().0.iter()) {
             if v != T::zero() {
-                for (o, x) in out_col.iter_mut().zip(src_col) {
+                for (o, x) in out_col.iter_mut().zip(a_col) {
                     *o += v * *x;
                 }
             }
         }
     }
-    out
 }
 
 /// The unit vector along axis `i` (0, 1, 2; zero for any other).

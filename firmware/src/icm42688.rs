@@ -326,3 +326,15 @@ impl DataMonitor {
         None
     }
 }
+
+/// The driver behind the data-ready line: INT_STATUS says whether the
+/// data is new (a read clears it), then one burst read.
+impl<SPI: SpiDevice> crate::tasks::Imu for Icm42688<SPI> {
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, ()> {
+        match self.data_ready() {
+            Ok(false) => Ok(None),
+            Ok(true) => self.read_si().map(Some).map_err(|_| ()),
+            Err(_) => Err(()),
+        }
+    }
+}

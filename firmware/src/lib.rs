@@ -1,16 +1,22 @@
-//! # rins firmware logic
+//! # rins firmware
 //!
-//! `no_std`, no heap, no panics: everything the board does that can be
-//! logic lives here and is tested on the host through `hal-sim`; the
-//! binary (`main.rs`, RTIC 2) only wires the STM32F405's peripherals to it.
+//! `no_std`, no heap, no panics: the board's program, tested on the host
+//! through `hal-sim` and under QEMU; the binary (`main.rs`, RTIC 2) only
+//! wires the STM32F405's peripherals to it.
 //!
+//! - [`tasks`]: the scheduling (what runs at which priority, the queues
+//!   between the tasks), generic over the peripherals.
+//! - [`control`]: the control tick's logic (rate loop, encoder glitch and
+//!   stall filters).
+//! - [`calibration`]: the power-up calibration.
+//! - [`navigation`]: strapdown and aided navigation, fixes at their epoch.
+//! - [`link`]: commands in, telemetry out ([`protocol`] on the wire).
+//! - [`record`]: the flash journal (erases only at boot).
+//! - [`faults`]: counted, rate-limited fault reports.
+//! - [`watchdog`]: the watchdog's progress rule.
+//! - [`clock`]: the 64-bit microsecond clock and the sensor's sample clock.
 //! - [`icm42688`]: the IMU driver, generic over `embedded_hal::spi::SpiDevice`.
-//! - [`app`]: the board's logic: rate control (`core_nav::control`, the
-//!   controller the simulator's console shares), faults, the power-up
-//!   calibration state machine and its flash record, navigation.
-//! - [`replay`]: the QEMU build's input stream.
-//! - [`telemetry`]: framed telemetry and commands (COBS, CRC-16, sequence
-//!   numbers): loss and corruption are counted, never silent.
+//! - [`replay`]: the sensors' stand-in for the QEMU build.
 //!
 //! Frames and units as in `core-nav` (its crate docs).
 
@@ -26,8 +32,17 @@
     )
 )]
 
-pub mod app;
+pub mod calibration;
+pub mod clock;
+pub mod control;
 pub mod faults;
 pub mod icm42688;
+pub mod link;
+pub mod navigation;
+pub mod record;
 pub mod replay;
-pub mod telemetry;
+pub mod tasks;
+pub mod tuning;
+pub mod watchdog;
+
+pub use protocol;

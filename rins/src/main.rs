@@ -36,6 +36,8 @@ enum Command {
     QemuReplay(cmd::qemu_replay::Args),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
     Record(cmd::record::Args),
+    /// Send one command to a board (start, stop, scheme, site, base, aided, recalibrate).
+    Command(cmd::command::Args),
     /// The main job: the board's run simulated, calibrated and navigated
     /// against a conventional twin; a short table and plots.
     Demo(cmd::demo::Args),
@@ -57,6 +59,7 @@ fn main() -> Result<()> {
         Command::Reproduce(a) => cmd::reproduce::run(&a),
         Command::Demo(a) => cmd::demo::run(&a),
         Command::Record(a) => cmd::record::run(&a),
+        Command::Command(a) => cmd::command::run(&a),
         Command::QemuReplay(a) => cmd::qemu_replay::run(&a),
         Command::Diagnose(a) => cmd::diagnose::run(&a),
         Command::Study(a) => cmd::study::run(&a),

@@ -1,35 +1,36 @@
 //! The QEMU test's input (`rins qemu-replay`): a recording turned into the
-//! board's input stream (IMU samples, 16-bit encoder reads and, on a
-//! moving-base recording, GNSS fixes as command frames, in time order),
-//! run through the board's logic on the host; the host's outcome goes in
-//! the trailer for the QEMU build to compare with, bit for bit.
+//! board's input stream, in time order: the host's configuration commands
+//! (site, base, scheme, aided mode: the ones `rins record --like` sends),
+//! IMU samples, 16-bit encoder reads and, on a moving-base recording, GNSS
+//! fixes at their time of validity. The trailer is left for the board's
+//! host twin (`cargo run -p rins-tests --bin board-twin`), which runs the
+//! board's program on the stream: `rins` does not contain the board.
 //!
 //! A moving-base recording with `gnss.csv` configures the board for aided
 //! navigation (the filter's noise model from the recording's sensor
-//! profile, as `rins navigate --gnss` takes it); each fix arrives just
-//! before the IMU sample nearest its time, the sample `rins navigate
-//! --gnss` uses it at.
+//! profile, as `rins navigate --gnss` takes it); each fix is valid at the
+//! IMU sample nearest its time, the sample `rins navigate --gnss` uses it
+//! at, and is sent [`FIX_LATENCY_US`] later.
 
 use anyhow::{anyhow, bail, Result};
 use core_nav::table::EncoderScale;
-use firmware::app::{App, Mode};
-use firmware::replay::{
-    encode, encode_outcome, outcome, step, Event, Header, Outcome, HEADER, RECORD_MAX,
-};
+use protocol::replay::{encode, encode_outcome, Event, Header, Outcome, HEADER, RECORD_MAX};
 use recording::Recording;
 
-/// The stream and what the host's run of it came to.
+/// How long after its time of validity a fix reaches the board in the
+/// replay, µs (a receiver's 50-100 ms and a relay's, well inside the
+/// board's horizon of 400 ms).
+pub const FIX_LATENCY_US: u32 = 150_000;
+
+/// The stream.
 pub struct Replay {
-    /// The bytes the QEMU build reads (header, records, outcome trailer).
+    /// The bytes the QEMU build reads (header, records, an empty trailer
+    /// for the host twin to fill).
     pub bytes: Vec<u8>,
     /// Events in the stream.
     pub events: usize,
-    /// The host's final state (the trailer).
-    pub outcome: Outcome,
-    /// The board logic's mode at the end.
-    pub mode: Mode,
-    /// What the board's aided navigator counted (aided replays).
-    pub aided: Option<core_nav::aided::AidedCounts>,
+    /// Configuration commands in it.
+    pub commands: usize,
 }
 
 /// Builds the replay of `rec` for a board whose encoder has
@@ -38,8 +39,7 @@ pub struct Replay {
 ///
 /// # Errors
 /// A table that never turns (the board's calibration needs rotation), a
-/// configuration the board refuses, or a run that does not reach
-/// navigation.
+/// sensor profile the recording does not name.
 pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
     let m = &rec.meta;
     let rate = match rec
@@ -59,6 +59,8 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
         rate_radps: (rate.to_degrees() * 10.0).round().to_radians() / 10.0,
         counts_per_rev,
         aided: None,
+        commands: 0,
+        fix_latency_us: FIX_LATENCY_US,
     };
     let mut fixes = Vec::new();
     if let Some(g) = rec
@@ -96,54 +98,48 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
         }
     }
     let scale = EncoderScale::new(counts_per_rev);
-    let cfg = header.config();
-    let mut events: Vec<Event> = rec
-        .imu
+    let commands = crate::link::config_commands(rec, header.rate_radps);
+    let mut events: Vec<Event> = commands
         .iter()
-        .map(|r| Event::Imu {
+        .filter_map(Event::command)
+        .chain(rec.imu.iter().map(|r| Event::Imu {
             t_us: (r.t_s * 1e6).round() as u64,
             gyro: r.gyro_radps.map(|x| x as f32),
             accel: r.accel_mps2.map(|x| x as f32),
             temp: r.temp_c.unwrap_or(25.0) as f32,
-        })
+        }))
         .chain(rec.table.iter().map(|r| Event::Encoder {
             t_us: (r.t_s * 1e6).round() as u64,
             hw: EncoderScale::hw_count(scale.count_nearest(r.angle_rad)),
         }))
         .chain(fixes)
         .collect();
-    // Encoder, then a fix, then the IMU sample at the same time (the board
-    // reads the encoder first; a fix waits for the next sample).
+    // The commands first; then by time: encoder, fix, IMU sample.
     events.sort_by_key(|e| match e {
-        Event::Imu { t_us, .. } => (*t_us, 2),
-        Event::Gnss { t_us, .. } => (*t_us, 1),
-        Event::Encoder { t_us, .. } => (*t_us, 0),
+        Event::Command { .. } => (0, 0),
+        Event::Imu { t_us, .. } => (*t_us, 3),
+        Event::Gnss { t_us, .. } => (*t_us, 2),
+        Event::Encoder { t_us, .. } => (*t_us, 1),
     });
-    let mut app =
-        App::new(cfg).map_err(|e| anyhow!("the board refuses the configuration: {e:?}"))?;
-    let mut bytes = Vec::with_capacity(HEADER + events.len() * RECORD_MAX + 32);
+    header.commands = u32::try_from(commands.len()).map_err(|_| anyhow!("too many commands"))?;
     header.records = u32::try_from(events.len()).map_err(|_| anyhow!("too many events"))?;
+    let mut bytes = Vec::with_capacity(HEADER + events.len() * RECORD_MAX + 32);
     bytes.extend_from_slice(&header.encode());
     for e in &events {
-        step(&mut app, e);
         let mut r = [0u8; RECORD_MAX];
         let n = encode(e, &mut r);
         bytes.extend_from_slice(&r[..n]);
     }
-    let o = outcome(&app);
-    bytes.extend_from_slice(&encode_outcome(&o));
-    if o.mode != 3 {
-        bail!(
-            "the board's logic did not reach navigation on this recording (mode {:?}, last refusal {:?})",
-            app.mode,
-            app.last_refusal
-        );
-    }
+    bytes.extend_from_slice(&encode_outcome(&Outcome {
+        mode: NOT_RUN,
+        ..Outcome::default()
+    }));
     Ok(Replay {
         bytes,
         events: events.len(),
-        outcome: o,
-        mode: app.mode,
-        aided: app.aided().map(|a| a.counts),
+        commands: commands.len(),
     })
 }
+
+/// The trailer's mode before the host twin has run the stream.
+pub const NOT_RUN: u8 = 0xFF;

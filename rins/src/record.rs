@@ -1,5 +1,5 @@
 //! `rins record`: the board's telemetry (framed: COBS, CRC-16, sequence
-//! numbers; `firmware::telemetry`) decoded into a recording
+//! numbers; the `protocol` crate) decoded into a recording
 //! (`rins-recording/1`), with the link's losses counted.
 //!
 //! IMU frames carry the board's 10 ms means (its rate loop reads the IMU at
@@ -8,7 +8,7 @@
 //! count; the angle is `count x 2 pi / counts_per_rev`.
 
 use core_nav::table::EncoderScale;
-use firmware::telemetry::{Decoder, LinkStats, Telemetry, MAX_PAYLOAD};
+use protocol::{CalStatus, Decoder, Fault, LinkStats, ResetCause, Telemetry, MAX_PAYLOAD};
 use recording::{ImuRow, Meta, Recording, SampleKind, TableRow};
 
 /// What came over the link besides the samples.
@@ -29,8 +29,29 @@ pub struct Decoded {
     /// Changes of an accepted calibration from the stored record:
     /// (bias rad/s, `M k`).
     pub calibration_changes: Vec<([f32; 3], [f32; 3])>,
-    /// Faults: (t_us, code, count).
-    pub faults: Vec<(u64, u8, u32)>,
+    /// Faults: (t_us, fault, count).
+    pub faults: Vec<(u64, Fault, u32)>,
+    /// The board's health frames, in order.
+    pub health: Vec<Health>,
+    /// The configuration frames the board sent.
+    pub configs: Vec<Telemetry>,
+}
+
+/// One `Health` frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Health {
+    /// Board time, µs.
+    pub t_us: u64,
+    /// Why the board last reset.
+    pub reset: ResetCause,
+    /// The control tick's worst case, cycles, and its overruns.
+    pub tick: (u32, u32),
+    /// Navigation's worst case, cycles, and its overruns.
+    pub nav: (u32, u32),
+    /// IMU samples dropped and duplicated.
+    pub samples: (u32, u32),
+    /// Bytes received by the board and lost.
+    pub rx: (u32, u32),
 }
 
 /// One `Calibration` frame.
@@ -40,9 +61,8 @@ pub struct CalibrationFrame {
     pub bias_radps: [f32; 3],
     /// Column `M k` (installation errors and the table axis' scale error).
     pub m_k: [f32; 3],
-    /// 0 accepted, `CAL_STATUS_STORED` the record found at power-up, else
-    /// the refusal code.
-    pub status: u8,
+    /// Accepted, the record found at power-up, or why refused.
+    pub status: CalStatus,
 }
 
 /// Decodes a byte stream; `meta` is what the recording is told about the
@@ -67,7 +87,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
         let Some(n) = d.push(b, &mut out) else {
             continue;
         };
-        let Ok((_, t)) = Telemetry::parse(&out[..n]) else {
+        let Ok((_, t)) = Telemetry::decode(&out[..n]) else {
             d.count_corrupt();
             continue;
         };
@@ -117,8 +137,28 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 d_bias_radps,
                 d_m_k,
             } => r.calibration_changes.push((d_bias_radps, d_m_k)),
-            Telemetry::Fault { t_us, code, count } => r.faults.push((t_us, code, count)),
+            Telemetry::Fault { t_us, fault, count } => r.faults.push((t_us, fault, count)),
             Telemetry::Ack { .. } => {}
+            Telemetry::Health {
+                t_us,
+                reset,
+                tick_worst,
+                tick_overruns,
+                nav_worst,
+                nav_overruns,
+                samples_dropped,
+                samples_duplicated,
+                rx_bytes,
+                rx_lost,
+            } => r.health.push(Health {
+                t_us,
+                reset,
+                tick: (tick_worst, tick_overruns),
+                nav: (nav_worst, nav_overruns),
+                samples: (samples_dropped, samples_duplicated),
+                rx: (rx_bytes, rx_lost),
+            }),
+            c @ Telemetry::Config { .. } => r.configs.push(c),
         }
     }
     r.stats = d.stats;
@@ -131,7 +171,12 @@ pub fn link_json(d: &Decoded) -> serde_json::Value {
     serde_json::json!({
         "frames": s.frames, "lost": s.lost, "corrupt": s.corrupt, "overflow": s.overflow,
         "out_of_order": d.out_of_order, "imu_samples": d.recording.imu.len(),
-        "encoder_reads": d.recording.table.len(), "faults": d.faults,
+        "encoder_reads": d.recording.table.len(),
+        "faults": d.faults.iter().map(|(t, f, c)| serde_json::json!({"t_us": t, "fault": format!("{f:?}"), "code": f.code(), "count": c})).collect::<Vec<_>>(),
+        "health": d.health.last().map(|h| serde_json::json!({
+            "reset": format!("{:?}", h.reset), "tick_worst_cycles": h.tick.0, "tick_overruns": h.tick.1,
+            "nav_worst_cycles": h.nav.0, "nav_overruns": h.nav.1, "samples_dropped": h.samples.0,
+            "samples_duplicated": h.samples.1, "rx_bytes": h.rx.0, "rx_lost": h.rx.1})),
     })
 }
 
@@ -140,23 +185,26 @@ pub fn link_json(d: &Decoded) -> serde_json::Value {
 /// last accepted result as the calibration, every frame in order, the
 /// stored record and the change from it. `None` when no frame came.
 pub fn calibration_json(d: &Decoded, axis: core_nav::table::Axis) -> Option<serde_json::Value> {
-    use firmware::app::CAL_STATUS_STORED;
     let v = |a: &[f32; 3]| a.map(f64::from).to_vec();
-    let accepted = d.calibrations.iter().rev().find(|c| c.status == 0);
+    let accepted = d
+        .calibrations
+        .iter()
+        .rev()
+        .find(|c| c.status == CalStatus::Accepted);
     let stored = d
         .calibrations
         .iter()
-        .find(|c| c.status == CAL_STATUS_STORED);
+        .find(|c| c.status == CalStatus::Stored);
     if d.calibrations.is_empty() {
         return None;
     }
     let frame = |c: &CalibrationFrame| {
         let what = match c.status {
-            0 => "accepted".to_string(),
-            CAL_STATUS_STORED => "stored at power-up".to_string(),
-            code => format!("refused (reason {code})"),
+            CalStatus::Accepted => "accepted".to_string(),
+            CalStatus::Stored => "stored at power-up".to_string(),
+            why => format!("refused ({why:?})"),
         };
-        serde_json::json!({"bias_radps": v(&c.bias_radps), "m_k": v(&c.m_k), "status": c.status, "what": what})
+        serde_json::json!({"bias_radps": v(&c.bias_radps), "m_k": v(&c.m_k), "status": c.status.code(), "what": what})
     };
     let zero = [0.0f64; 3].to_vec();
     let mut out = serde_json::json!({

@@ -2,5 +2,7 @@
 //! holds what they share: where their reference data is ([`data`]) and the
 //! simulated runs several of them diagnose ([`runs`]).
 
+pub mod board;
 pub mod data;
 pub mod runs;
+pub mod twin;

@@ -3,6 +3,7 @@
 
 pub mod allan;
 pub mod calibrate;
+pub mod command;
 pub mod demo;
 pub mod diagnose;
 pub mod navigate;

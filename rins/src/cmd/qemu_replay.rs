@@ -25,12 +25,11 @@ pub fn run(a: &Args) -> Result<()> {
     write_file(&a.out, "")?;
     std::fs::write(&a.out, &r.bytes).with_context(|| format!("writing {}", a.out.display()))?;
     println!(
-        "{} events -> {}; host: mode {:?}, p_n {:?} m, v_n {:?} m/s",
+        "{} events ({} configuration commands) -> {}; the board's host twin fills its trailer: cargo run -p rins-tests --bin board-twin -- {}",
         r.events,
+        r.commands,
         a.out.display(),
-        r.mode,
-        r.outcome.p_n,
-        r.outcome.v_n
+        a.out.display()
     );
     Ok(())
 }

@@ -5,7 +5,6 @@
 use super::{write_file, SiteArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use rins::progress_bar;
-use std::io::Read;
 use std::path::PathBuf;
 
 /// `rins record`.
@@ -36,6 +35,20 @@ pub struct Args {
     /// Also write the link statistics as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Configure the board first for this recording's site, base, scheme
+    /// and aided mode (the commands `rins command` sends; each acknowledged).
+    #[arg(long, requires = "port")]
+    pub like: Option<PathBuf>,
+    /// Relay these GNSS fixes to the board (a recording-v1 `gnss.csv`),
+    /// each with its time of validity on the board's clock (with `--like`,
+    /// its times are the recording's and the board's first IMU frame is the
+    /// recording's first sample; without, they are the board's).
+    #[arg(long, requires = "port")]
+    pub gnss: Option<PathBuf>,
+    /// Send each fix this long after its time of validity (a receiver's
+    /// latency), ms.
+    #[arg(long, default_value_t = 150.0)]
+    pub latency_ms: f64,
 }
 
 /// Runs `rins record`.
@@ -57,24 +70,7 @@ pub fn run(a: &Args) -> Result<()> {
             .port
             .as_deref()
             .ok_or_else(|| anyhow!("--port or --from-file"))?;
-        let mut p = serialport::new(port, a.baud)
-            .timeout(std::time::Duration::from_millis(200))
-            .open()
-            .with_context(|| format!("opening {port}"))?;
-        let pb = progress_bar("record");
-        let start = std::time::Instant::now();
-        let mut all = vec![];
-        let mut buf = [0u8; 4096];
-        while start.elapsed().as_secs_f64() < a.duration_s {
-            match p.read(&mut buf) {
-                Ok(n) => all.extend_from_slice(&buf[..n]),
-                Err(e) if e.kind() == std::io::ErrorKind::TimedOut => {}
-                Err(e) => return Err(e).with_context(|| format!("reading {port}")),
-            }
-            pb.set_position((start.elapsed().as_secs_f64() / a.duration_s * 1000.0) as u64);
-        }
-        pb.finish_and_clear();
-        all
+        record_port(a, port)?
     };
     let d = rins::record::decode(bytes, meta);
     println!("{}", rins::record::link_report(&d));
@@ -107,4 +103,71 @@ pub fn run(a: &Args) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// Records from a port: configures the board (`--like`), relays fixes
+/// (`--gnss`), until `--duration-s` or the port closes.
+fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
+    let mut s = rins::link::Session::new(rins::link::open(port, a.baud)?);
+    let like = a
+        .like
+        .as_ref()
+        .map(|p| super::read_recording(p))
+        .transpose()?;
+    let mut relay = match &a.gnss {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            let rows = recording::moving::parse_gnss(&text, p).map_err(|e| anyhow!("{e}"))?;
+            let t0 = like
+                .as_ref()
+                .and_then(|r| r.imu.first())
+                .map(|r| (r.t_s * 1e6).round() as i64);
+            Some(rins::link::Relay::new(
+                rows,
+                t0,
+                (a.latency_ms * 1e3) as u64,
+            ))
+        }
+        None => None,
+    };
+    let mut frames: Vec<protocol::Telemetry> = vec![];
+    if let Some(rec) = &like {
+        let rate = rec
+            .table
+            .windows(2)
+            .rev()
+            .find(|w| w[1].angle_rad != w[0].angle_rad)
+            .map_or(30f64.to_radians(), |w| w[0].rate_to(&w[1]));
+        let rate = (rate.to_degrees() * 10.0).round().to_radians() / 10.0;
+        for c in rins::link::config_commands(rec, rate) {
+            let st = s.command(&c, &mut |t| frames.push(*t))?;
+            if st != protocol::Status::Accepted {
+                bail!("the board refused {c:?}: {st:?}");
+            }
+        }
+        println!(
+            "configured the board like {}",
+            a.like
+                .as_ref()
+                .map_or(String::new(), |p| p.display().to_string())
+        );
+    }
+    let pb = progress_bar("record");
+    let start = std::time::Instant::now();
+    while start.elapsed().as_secs_f64() < a.duration_s && !s.closed {
+        for t in s.pump()? {
+            if let Some(r) = relay.as_mut() {
+                for c in r.due(&t) {
+                    s.send(&c)?;
+                }
+            }
+        }
+        pb.set_position((start.elapsed().as_secs_f64() / a.duration_s * 1000.0) as u64);
+    }
+    pb.finish_and_clear();
+    if let Some(r) = &relay {
+        println!("relayed {} GNSS fixes ({} not sent)", r.sent, r.left());
+    }
+    Ok(std::mem::take(&mut s.bytes))
 }

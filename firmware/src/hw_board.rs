@@ -1,0 +1,385 @@
+//! The board's peripherals (Adafruit Feather STM32F405 Express, or any
+//! STM32F405/F407 board with a 12 MHz crystal): every pin in one place.
+//!
+//! | signal | pin (Feather label) | peripheral |
+//! | --- | --- | --- |
+//! | IMU SCK / MISO / MOSI | PA5 / PA6 / PA7 (A1 / A2 / A3) | SPI1, mode 0, 8 MHz |
+//! | IMU chip select | PA4 (A0) | GPIO, active low |
+//! | IMU INT1 (data-ready) | PC4 (A4) | EXTI4, rising edge |
+//! | encoder A / B | PB6 / PB7 (SCL / SDA) | TIM4 quadrature (16-bit counter) |
+//! | motor PWM | PA8 | TIM1 CH1, 20 kHz |
+//! | motor direction | PC6 (D6) | GPIO (high = positive rotation) |
+//! | telemetry TX / RX | PB10 / PB11 (TX / RX) | USART3, 921,600 baud |
+//!
+//! The Feather's pins labelled TX and RX are USART3's (PB10 / PB11, AF7),
+//! by its pinout. PA8 is not on the Feather's header: wire the motor
+//! driver's PWM to its pad, or move the PWM to TIM8 CH1 on PC6 (README,
+//! "Bring-up").
+
+#[path = "hw_common.rs"]
+mod common;
+pub use common::*;
+
+use embedded_hal::delay::DelayNs;
+use embedded_hal_02::Qei as _;
+use embedded_hal_bus::spi::ExclusiveDevice;
+use firmware::faults::Fault;
+use firmware::icm42688::{Config, Icm42688};
+use firmware::record::{Flash, FlashError, Sector, F405_SECTORS};
+use firmware::tasks::{Encoder, Motor, Tuning, Watchdog};
+use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
+use stm32f4xx_hal::pac::{self, FLASH, SPI1, TIM1, TIM4};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::qei::Qei;
+use stm32f4xx_hal::rcc::{Config as RccConfig, Enable};
+use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+use stm32f4xx_hal::timer::PwmChannel;
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+/// Crystal, Hz.
+pub const HSE_HZ: u32 = 12_000_000;
+/// System clock, Hz.
+pub const SYSCLK_HZ: u32 = 168_000_000;
+/// APB1 (USART3), Hz: SYSCLK / 4.
+pub const APB1_HZ: u32 = 42_000_000;
+/// APB1's timers (TIM2-5) run at twice APB1, Hz.
+pub const TIMER_HZ: u32 = 84_000_000;
+/// The journal's sectors.
+pub const JOURNAL: [Sector; 2] = F405_SECTORS;
+/// The 64-bit clock's counter at boot.
+const CLOCK_START: u32 = 0;
+
+/// The IMU's SPI device: the bus, chip select, and a real delay.
+type ImuSpi = ExclusiveDevice<Spi<SPI1>, PA4<Output<PushPull>>, CycleDelay>;
+
+/// A busy-wait delay (the IMU's start-up, before the scheduler runs).
+pub struct CycleDelay;
+impl DelayNs for CycleDelay {
+    fn delay_ns(&mut self, ns: u32) {
+        cortex_m::asm::delay((u64::from(ns) * u64::from(SYSCLK_HZ / 1_000_000) / 1_000) as u32);
+    }
+}
+
+/// The IMU (absent when it did not come up: the tick never runs).
+pub struct BoardImu(Option<Icm42688<ImuSpi>>);
+impl firmware::tasks::Imu for BoardImu {
+    fn read(
+        &mut self,
+    ) -> Result<Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>, ()> {
+        self.0.as_mut().ok_or(())?.read()
+    }
+}
+
+/// The encoder.
+pub struct BoardEncoder(Qei<TIM4>);
+impl Encoder for BoardEncoder {
+    fn count(&mut self) -> u16 {
+        self.0.count() // TIM4: a 16-bit counter
+    }
+}
+
+/// The motor: PWM duty and direction.
+pub struct BoardMotor {
+    pwm: PwmChannel<TIM1, 0>,
+    dir: PC6<Output<PushPull>>,
+}
+impl Motor for BoardMotor {
+    fn set(&mut self, duty: f32) {
+        let max = self.pwm.get_max_duty();
+        self.pwm
+            .set_duty((duty.abs().min(1.0) * f32::from(max)) as u16);
+        if duty >= 0.0 {
+            self.dir.set_high();
+        } else {
+            self.dir.set_low();
+        }
+    }
+}
+
+/// The independent watchdog (100 ms), started at the end of `init`.
+pub struct BoardWatchdog(IndependentWatchdog);
+impl BoardWatchdog {
+    /// Starts it (after the journal's boot erase).
+    pub fn start(&mut self) {
+        self.0.start(100u32.millis());
+    }
+}
+impl Watchdog for BoardWatchdog {
+    fn feed(&mut self) {
+        self.0.feed();
+    }
+}
+
+/// The flash controller (RM0090 3.6), with the PAC directly: the HAL's
+/// `unlocked()` asserts that the unlock took (a panic path); here a flash
+/// that stays locked, or any error flag, is a value.
+pub struct BoardFlash(FLASH);
+
+const KEY1: u32 = 0x4567_0123;
+const KEY2: u32 = 0xCDEF_89AB;
+/// SR error bits: OPERR, WRPERR, PGAERR, PGPERR, PGSERR.
+const ERRORS: u32 = 0b1111_0010;
+
+impl BoardFlash {
+    fn wait(&self) {
+        while self.0.sr().read().bsy().bit_is_set() {}
+    }
+    fn check(&self) -> Result<(), FlashError> {
+        let sr = self.0.sr().read().bits() & ERRORS;
+        // SAFETY: writing ones to the error flags only clears them.
+        self.0.sr().write(|w| unsafe { w.bits(ERRORS) });
+        if sr == 0 {
+            Ok(())
+        } else {
+            Err(FlashError::Controller(sr))
+        }
+    }
+    fn unlocked<R>(
+        &mut self,
+        f: impl FnOnce(&Self) -> Result<R, FlashError>,
+    ) -> Result<R, FlashError> {
+        self.wait();
+        if self.0.cr().read().lock().bit_is_set() {
+            // SAFETY: the documented unlock keys.
+            self.0.keyr().write(|w| unsafe { w.key().bits(KEY1) });
+            self.0.keyr().write(|w| unsafe { w.key().bits(KEY2) });
+        }
+        if self.0.cr().read().lock().bit_is_set() {
+            return Err(FlashError::Controller(0));
+        }
+        let _ = self.check();
+        let r = f(self);
+        self.0
+            .cr()
+            .modify(|_, w| w.pg().clear_bit().ser().clear_bit().lock().set_bit());
+        r
+    }
+}
+
+fn in_journal(addr: u32, len: usize) -> bool {
+    JOURNAL
+        .iter()
+        .any(|s| addr >= s.base && addr as usize + len <= (s.base + s.len) as usize)
+}
+
+impl Flash for BoardFlash {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), FlashError> {
+        if !in_journal(addr, buf.len()) {
+            return Err(FlashError::OutOfRange);
+        }
+        for (i, b) in buf.iter_mut().enumerate() {
+            // SAFETY: inside the journal's sectors (checked).
+            *b = unsafe { core::ptr::read_volatile((addr as usize + i) as *const u8) };
+        }
+        Ok(())
+    }
+
+    fn program_word(&mut self, addr: u32, word: u32) -> Result<(), FlashError> {
+        if !in_journal(addr, 4) || addr % 4 != 0 {
+            return Err(FlashError::OutOfRange);
+        }
+        self.unlocked(|f| {
+            // SAFETY: PSIZE 2 (x32), PG set.
+            f.0.cr()
+                .modify(|_, w| unsafe { w.psize().bits(2).ser().clear_bit().pg().set_bit() });
+            // SAFETY: an erased, aligned word of the journal (checked).
+            unsafe { core::ptr::write_volatile(addr as *mut u32, word) };
+            f.wait();
+            f.check()
+        })
+    }
+
+    fn erase(&mut self, s: Sector) -> Result<(), FlashError> {
+        if !JOURNAL.contains(&s) {
+            return Err(FlashError::OutOfRange);
+        }
+        self.unlocked(|f| {
+            // SAFETY: SNB takes the sector number (0-11 on the F405).
+            f.0.cr().modify(|_, w| unsafe {
+                w.psize()
+                    .bits(2)
+                    .snb()
+                    .bits(s.number)
+                    .ser()
+                    .set_bit()
+                    .pg()
+                    .clear_bit()
+            });
+            f.0.cr().modify(|_, w| w.strt().set_bit());
+            f.wait();
+            f.check()
+        })
+    }
+}
+
+/// The board's peripherals, set up.
+pub struct Board {
+    /// The clock's counter.
+    pub tim5: pac::TIM5,
+    /// The link task's timer.
+    pub tim3: pac::TIM3,
+    /// Unused on the board (the QEMU build's data-ready stand-in).
+    pub tim2: pac::TIM2,
+    /// The telemetry UART.
+    pub usart: pac::USART3,
+    /// The motor.
+    pub motor: BoardMotor,
+    /// The IMU.
+    pub imu: BoardImu,
+    /// The encoder.
+    pub encoder: BoardEncoder,
+    /// The flash.
+    pub flash: BoardFlash,
+    /// The watchdog (not started).
+    pub wdg: BoardWatchdog,
+    /// Whether the IMU came up.
+    pub imu_status: Result<(), Fault>,
+}
+
+impl Board {
+    /// Clocks, pins and peripherals; the IMU initialised.
+    pub fn new(dp: pac::Peripherals) -> Self {
+        let mut rcc = dp.RCC.freeze(
+            RccConfig::hse(HSE_HZ.Hz())
+                .sysclk(SYSCLK_HZ.Hz())
+                .pclk1(APB1_HZ.Hz()),
+        );
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpioc = dp.GPIOC.split(&mut rcc);
+        pac::TIM5::enable(&mut rcc);
+        pac::TIM3::enable(&mut rcc);
+        pac::USART3::enable(&mut rcc);
+        pac::SYSCFG::enable(&mut rcc);
+        let _tx = gpiob.pb10.into_alternate::<7>();
+        let _rx = gpiob.pb11.into_alternate::<7>();
+        start_usart(&dp.USART3, APB1_HZ);
+        start_clock(&dp.TIM5, TIMER_HZ, CLOCK_START);
+        start_tim3(&dp.TIM3, TIMER_HZ, 100);
+        // The IMU's INT1 on PC4: EXTI4 from port C, rising edge.
+        let _int1 = gpioc.pc4.into_pull_down_input();
+        // SAFETY: EXTICR2 bits 3:0 select line 4's port (2 = C); IMR and
+        // RTSR bit 4.
+        unsafe {
+            dp.SYSCFG
+                .exticr2()
+                .modify(|r, w| w.bits((r.bits() & !0xF) | 2));
+            dp.EXTI.rtsr().modify(|r, w| w.bits(r.bits() | (1 << 4)));
+            dp.EXTI.imr().modify(|r, w| w.bits(r.bits() | (1 << 4)));
+        }
+        let mode = Mode {
+            polarity: Polarity::IdleLow,
+            phase: Phase::CaptureOnFirstTransition,
+        };
+        let spi = dp.SPI1.spi(
+            (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
+            mode,
+            8.MHz(),
+            &mut rcc,
+        );
+        let cs = gpioa
+            .pa4
+            .into_push_pull_output_in_state(stm32f4xx_hal::gpio::PinState::High);
+        let (imu, imu_status) = match ExclusiveDevice::new(spi, cs, CycleDelay) {
+            Ok(dev) => {
+                let mut imu = Icm42688::new(dev);
+                match imu.init(Config::default(), &mut CycleDelay) {
+                    Ok(()) => (Some(imu), Ok(())),
+                    Err(firmware::icm42688::Error::WrongDevice(_)) => {
+                        (None, Err(Fault::WrongDevice))
+                    }
+                    Err(_) => (None, Err(Fault::ImuInitFailed)),
+                }
+            }
+            Err(_) => (None, Err(Fault::ImuInitFailed)),
+        };
+        let qei = Qei::new(dp.TIM4, (gpiob.pb6, gpiob.pb7), &mut rcc);
+        let (_, (ch1, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
+        let mut pwm = ch1.with(gpioa.pa8);
+        pwm.set_duty(0);
+        pwm.enable();
+        let dir = gpioc.pc6.into_push_pull_output();
+        Self {
+            tim5: dp.TIM5,
+            tim3: dp.TIM3,
+            tim2: dp.TIM2,
+            usart: dp.USART3,
+            motor: BoardMotor { pwm, dir },
+            imu: BoardImu(imu),
+            encoder: BoardEncoder(qei),
+            flash: BoardFlash(dp.FLASH),
+            wdg: BoardWatchdog(IndependentWatchdog::new(dp.IWDG)),
+            imu_status,
+        }
+    }
+}
+
+/// The clock's counter at boot.
+pub fn clock_start(_tim5: &pac::TIM5) -> u32 {
+    clock_now()
+}
+
+/// The compiled-in tuning: the ICM-42688-P's filter noise model.
+pub fn tuning() -> Tuning {
+    firmware::tuning::board()
+}
+
+/// Turns DWT's cycle counter on (the tasks' worst cases).
+pub fn start_cycle_counter(
+    dcb: &mut cortex_m::peripheral::DCB,
+    dwt: &mut cortex_m::peripheral::DWT,
+    _syst: cortex_m::peripheral::SYST,
+) {
+    dcb.enable_trace();
+    dwt.enable_cycle_counter();
+}
+
+/// CPU cycles now.
+pub fn cycles() -> u32 {
+    cortex_m::peripheral::DWT::cycle_count()
+}
+
+/// Cycles since `c0`.
+pub fn since(c0: u32) -> u32 {
+    cycles().wrapping_sub(c0)
+}
+
+/// Stops for good at initialisation, in the safe state (the PWM duty 0,
+/// the watchdog not started): the board stays halted with the reason in
+/// the log instead of panicking.
+pub fn halt(why: &str) -> ! {
+    defmt::error!("halted at init: {=str}", why);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// The board has no replay.
+pub fn replay_done() -> bool {
+    false
+}
+
+/// The board adds no stress.
+pub fn stress() -> bool {
+    false
+}
+
+/// Nothing after navigation on the board.
+pub fn after_nav(_: &mut firmware::tasks::NavTask<'static>) {}
+
+/// After each link run: the stack's peak to the log once a minute (a
+/// probe reads it; the QEMU build prints it).
+pub fn after_link(_: &firmware::tasks::LinkTask<'static>) {
+    static RUNS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+    if RUNS.fetch_add(1, core::sync::atomic::Ordering::Relaxed) % 6_000 == 0 {
+        defmt::info!("stack peak: {=u32} bytes", stack_peak());
+    }
+}
+
+/// TIM2 never runs on the board.
+pub fn sensors_on() -> bool {
+    false
+}
+
+/// TIM2 never runs on the board.
+pub fn count_edge() {}

@@ -1,0 +1,252 @@
+//! The peripherals both builds share (the board and QEMU run the same
+//! code here): TIM5 as the 64-bit clock's counter, TIM3 pacing the link
+//! task, USART3 by interrupt, EXTI4 for the IMU's data-ready, the stack's
+//! paint. Register-level (the PAC): QEMU has no RCC, so the HAL's
+//! drivers, which need frozen clocks, are for the board's own file.
+
+use firmware::tasks::{Stats, UartEnds};
+use stm32f4xx_hal::pac::{self, Interrupt, NVIC};
+
+/// Every task's counters.
+pub static STATS: Stats = Stats {
+    progress: firmware::watchdog::Progress {
+        tick: core::sync::atomic::AtomicU32::new(0),
+        nav: core::sync::atomic::AtomicU32::new(0),
+        link: core::sync::atomic::AtomicU32::new(0),
+    },
+    tick_worst: core::sync::atomic::AtomicU32::new(0),
+    tick_overruns: core::sync::atomic::AtomicU32::new(0),
+    nav_worst: core::sync::atomic::AtomicU32::new(0),
+    nav_overruns: core::sync::atomic::AtomicU32::new(0),
+    link_worst: core::sync::atomic::AtomicU32::new(0),
+    dropped: core::sync::atomic::AtomicU32::new(0),
+    duplicated: core::sync::atomic::AtomicU32::new(0),
+    rx_bytes: core::sync::atomic::AtomicU32::new(0),
+    rx_lost: core::sync::atomic::AtomicU32::new(0),
+    out_lost: core::sync::atomic::AtomicU32::new(0),
+    last_sample_us: core::sync::atomic::AtomicU32::new(0),
+    samples: core::sync::atomic::AtomicU32::new(0),
+};
+
+/// The telemetry link's baud rate.
+pub const BAUD: u32 = 921_600;
+/// The word the stack is painted with.
+const PAINT: u32 = 0x5AC4_5AC4;
+/// The bottom of the stack: flip-link puts the stack at the start of RAM
+/// (below `.data` and `.bss`), so an overflow faults instead of
+/// overwriting statics.
+const STACK_BOTTOM: u32 = 0x2000_0000;
+
+extern "C" {
+    static _stack_start: u32;
+}
+
+fn stack_top() -> u32 {
+    // Only the linker script's symbol's address is taken.
+    core::ptr::addr_of!(_stack_start) as u32
+}
+
+/// Paints the unused stack (from its bottom to 256 bytes below where
+/// `init` is) so that [`stack_peak`] can read back how deep it ever went.
+pub fn paint_stack() {
+    let sp = cortex_m::register::msp::read();
+    let mut a = STACK_BOTTOM;
+    while a + 256 < sp {
+        // SAFETY: between the bottom of RAM and the live stack: unused.
+        unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
+        a += 4;
+    }
+}
+
+/// The init's peak (read when idle starts), bytes.
+pub static INIT_STACK_PEAK: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// When idle starts: keeps the init's peak (it builds the tasks' state,
+/// once, with interrupts off) and paints again, so [`stack_peak`] is the
+/// tasks' own. Safe to run while tasks preempt: a task's frames lie below
+/// idle's, and idle does not run while they are live.
+pub fn repaint_after_init() {
+    INIT_STACK_PEAK.store(stack_peak(), core::sync::atomic::Ordering::Relaxed);
+    paint_stack();
+}
+
+/// The deepest the stack has been since [`paint_stack`], bytes.
+pub fn stack_peak() -> u32 {
+    let mut a = STACK_BOTTOM;
+    // SAFETY: reads within the stack's region.
+    while a < stack_top() && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
+        a += 4;
+    }
+    stack_top().saturating_sub(a)
+}
+
+/// TIM5 as a free-running 32-bit counter at 1 MHz from `start` (the
+/// clock's 64-bit extension is `firmware::clock::Clock64`).
+pub fn start_clock(tim5: &pac::TIM5, timer_hz: u32, start: u32) {
+    // SAFETY: plain register writes (prescaler, reload, counter, enable).
+    unsafe {
+        tim5.psc().write(|w| w.bits(timer_hz / 1_000_000 - 1));
+        tim5.arr().write(|w| w.bits(u32::MAX));
+        tim5.egr().write(|w| w.bits(1));
+        tim5.cnt().write(|w| w.bits(start));
+        tim5.cr1().write(|w| w.bits(1));
+    }
+}
+
+/// TIM5's counter now, µs.
+pub fn clock_now() -> u32 {
+    // SAFETY: a read of a counter register no task writes after init.
+    unsafe { (*pac::TIM5::ptr()).cnt().read().bits() }
+}
+
+/// A general-purpose timer's update interrupt at `hz`.
+macro_rules! periodic {
+    ($name:ident, $tim:ty) => {
+        /// Starts the timer's update interrupt at `hz` from `timer_hz`.
+        pub fn $name(t: &$tim, timer_hz: u32, hz: u32) {
+            // 1 MHz ticks, `1e6 / hz` of them a period.
+            // SAFETY: plain register writes.
+            unsafe {
+                t.psc().write(|w| w.bits(timer_hz / 1_000_000 - 1));
+                t.arr().write(|w| w.bits(1_000_000 / hz - 1));
+                t.egr().write(|w| w.bits(1));
+                t.sr().write(|w| w.bits(0));
+                t.dier().write(|w| w.bits(1));
+                t.cr1().write(|w| w.bits(1));
+            }
+        }
+    };
+}
+periodic!(start_tim3, pac::TIM3);
+#[cfg_attr(not(feature = "qemu"), allow(dead_code))]
+mod tim2 {
+    use super::pac;
+    periodic!(start_tim2, pac::TIM2);
+}
+#[cfg_attr(not(feature = "qemu"), allow(unused_imports))]
+pub use tim2::start_tim2;
+
+/// Clears TIM3's update flag.
+pub fn clear_tim3(t: &pac::TIM3) {
+    // SAFETY: writing 0 clears the flags.
+    t.sr().write(|w| unsafe { w.bits(0) });
+}
+
+/// Clears TIM2's update flag.
+pub fn clear_tim2(t: &pac::TIM2) {
+    // SAFETY: writing 0 clears the flags.
+    t.sr().write(|w| unsafe { w.bits(0) });
+}
+
+/// USART3: 8N1 at [`BAUD`] from `apb1_hz`, receive interrupt on (the
+/// transmit interrupt is turned on when bytes are queued).
+pub fn start_usart(u: &pac::USART3, apb1_hz: u32) {
+    // BRR = f / baud in 1/16ths (oversampling by 16): 42 MHz gives 45.57,
+    // written 46 (913,043 baud: 0.9 % off, within the 2 % a UART takes).
+    let brr = ((apb1_hz + BAUD / 2) / BAUD) as u16;
+    // SAFETY: plain register writes (BRR; CR1: UE, RXNEIE, TE, RE).
+    unsafe {
+        u.brr().write(|w| w.bits(brr));
+        u.cr1()
+            .write(|w| w.bits((1 << 13) | (1 << 5) | (1 << 3) | (1 << 2)));
+    }
+}
+
+/// The USART's interrupt: every received byte into the receive queue
+/// (with the overrun flag: bytes lost before it), the next queued byte out
+/// while the transmitter is empty, the transmit interrupt off when the
+/// queue is.
+pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Stats) {
+    let sr = u.sr().read().bits();
+    if sr & ((1 << 5) | (1 << 3)) != 0 {
+        // Reading SR then DR clears RXNE and ORE.
+        let b = (u.dr().read().bits() & 0xFF) as u8;
+        q.received(b, sr & (1 << 3) != 0, stats);
+    }
+    if u.cr1().read().bits() & (1 << 7) == 0 {
+        return;
+    }
+    // While the data register is empty: on the chip that is one byte (two
+    // when the shift register is idle too), the next when TXE interrupts
+    // again; QEMU sends each byte at once and drains the queue here.
+    while u.sr().read().bits() & (1 << 7) != 0 {
+        match q.next_tx() {
+            // SAFETY: a byte into the data register.
+            Some(b) => {
+                u.dr().write(|w| unsafe { w.bits(u16::from(b)) });
+            }
+            None => {
+                // SAFETY: TXEIE off, the rest of CR1 kept.
+                u.cr1()
+                    .modify(|r, w| unsafe { w.bits(r.bits() & !(1 << 7)) });
+                return;
+            }
+        }
+    }
+}
+
+/// Turns the USART's transmit interrupt on (bytes are queued) and pends
+/// it: QEMU's USART model raises its interrupt for received bytes only,
+/// never for TXE, so the first byte is sent from a pended interrupt (on
+/// the chip the pend is redundant: TXE interrupts by itself).
+pub fn listen_tx(u: &mut pac::USART3) {
+    // SAFETY: TXEIE on, the rest of CR1 kept.
+    u.cr1()
+        .modify(|r, w| unsafe { w.bits(r.bits() | (1 << 7)) });
+    NVIC::pend(Interrupt::USART3);
+}
+
+/// Clears the data-ready line's EXTI flag (line 4).
+pub fn clear_data_ready() {
+    // SAFETY: writing 1 clears the pending bit of line 4 only.
+    unsafe { (*pac::EXTI::ptr()).pr().write(|w| w.bits(1 << 4)) };
+}
+
+/// Unmasks the interrupts the tasks are bound to (the tick's only when the
+/// IMU came up).
+pub fn enable_interrupts(imu: bool) {
+    // SAFETY: the tasks bound to them are ready (init has returned their
+    // state by the time RTIC enables interrupts globally).
+    unsafe {
+        NVIC::unmask(Interrupt::USART3);
+        NVIC::unmask(Interrupt::SPI3);
+        NVIC::unmask(Interrupt::TIM3);
+        NVIC::unmask(Interrupt::TIM2);
+        if imu {
+            NVIC::unmask(Interrupt::EXTI4);
+        }
+    }
+}
+
+/// Reads the reset cause and clears the flags (RCC_CSR, RMVF).
+pub fn reset_cause(rcc: &pac::RCC) -> protocol_codes::ResetCause {
+    let csr = rcc.csr().read().bits();
+    // SAFETY: RMVF (bit 24) clears the flags; the LSI bits are kept.
+    rcc.csr()
+        .modify(|r, w| unsafe { w.bits(r.bits() | (1 << 24)) });
+    protocol_codes::ResetCause::from_rcc_csr(csr)
+}
+
+/// The protocol's codes.
+pub use firmware::protocol::codes as protocol_codes;
+
+/// The IWDG and the timers stop while a debugger halts the core, and the
+/// debug clocks keep running in sleep (`wfi` in idle would stop RTT and
+/// the probe otherwise): DBGMCU.
+pub fn freeze_for_debugger(d: &pac::DBGMCU) {
+    // SAFETY: DBGMCU is for the debugger only.
+    unsafe {
+        // CR: DBG_SLEEP, DBG_STOP, DBG_STANDBY.
+        d.cr().modify(|r, w| w.bits(r.bits() | 0b111));
+        // APB1_FZ: TIM2 (0), TIM3 (1), TIM4 (2), TIM5 (3), IWDG (12).
+        d.apb1_fz()
+            .modify(|r, w| w.bits(r.bits() | 0b1111 | (1 << 12)));
+        // APB2_FZ: TIM1 (0): the motor's PWM.
+        d.apb2_fz().modify(|r, w| w.bits(r.bits() | 1));
+    }
+}
+
+/// Whether a tick is pending again (it ran past the next data-ready).
+pub fn tick_pending() -> bool {
+    NVIC::is_pending(Interrupt::EXTI4)
+}

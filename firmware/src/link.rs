@@ -1,0 +1,183 @@
+//! The link's logic (the lowest-priority task): bytes from the UART's
+//! receive queue decoded into commands, checked, acknowledged or routed to
+//! the task that answers them; the configuration commands applied to the
+//! stored configuration; telemetry framed (one sequence number for the
+//! whole link, so the host counts every frame lost) into the transmit
+//! queue, whole frames only.
+
+use crate::control::ControlCmd;
+use crate::navigation::NavCmd;
+use core_nav::scheme::{Limits, Profile, Scheme};
+use protocol::frame::Decoder;
+use protocol::record::BoardConfig;
+use protocol::{Command, FrameError, SchemeKind, Status, Telemetry, MAX_FRAME, MAX_PAYLOAD};
+
+/// Where a command goes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Route {
+    /// To the control tick (acknowledged here).
+    Control(ControlCmd),
+    /// To navigation (which acknowledges it).
+    Nav(NavCmd),
+    /// The configuration changed: store it, tell navigation and the tick.
+    Config(BoardConfig),
+}
+
+/// The scheme a configuration names.
+pub fn scheme(c: &BoardConfig) -> Scheme {
+    let rate = f64::from(c.rate_dps).to_radians();
+    match c.scheme {
+        SchemeKind::Still => Scheme::Still,
+        SchemeKind::Continuous => Scheme::Continuous { rate },
+        SchemeKind::Reciprocating => Scheme::Reciprocating {
+            rate,
+            turns: u32::from(c.count),
+        },
+        SchemeKind::Indexed => Scheme::Indexed {
+            rate,
+            positions: c.count,
+            dwell_s: 10.0,
+        },
+    }
+}
+
+/// The link's state.
+pub struct Link {
+    decoder: Decoder,
+    seq: u16,
+    limits: Limits,
+    /// The configuration in use (commands change it).
+    pub config: BoardConfig,
+    /// Commands taken (acknowledged or routed).
+    pub commands: u32,
+    /// Frames dropped because the transmit queue had no room.
+    pub tx_dropped: u32,
+}
+
+impl Link {
+    /// The link with the stored configuration.
+    pub fn new(config: BoardConfig, limits: Limits) -> Self {
+        Self {
+            decoder: Decoder::default(),
+            seq: 0,
+            limits,
+            config,
+            commands: 0,
+            tx_dropped: 0,
+        }
+    }
+
+    /// The decoder's counters (frames, corrupt, overflow, lost).
+    pub fn rx_stats(&self) -> protocol::LinkStats {
+        self.decoder.stats
+    }
+
+    /// One received byte; a complete command is checked and routed, and
+    /// answered (`ack`) unless navigation answers it.
+    pub fn rx(&mut self, b: u8, route: &mut impl FnMut(Route), ack: &mut impl FnMut(Telemetry)) {
+        let mut p = [0u8; MAX_PAYLOAD + 2];
+        let Some(n) = self.decoder.push(b, &mut p) else {
+            return;
+        };
+        let payload = p.get(..n).unwrap_or(&[]);
+        let seq = u16::from_le_bytes([
+            payload.get(1).copied().unwrap_or(0),
+            payload.get(2).copied().unwrap_or(0),
+        ]);
+        self.commands = self.commands.wrapping_add(1);
+        let status = match Command::parse(payload) {
+            Ok((_, c)) => self.take(seq, c, route),
+            Err(FrameError::OutOfBounds(s)) => Some(s),
+            Err(_) => Some(Status::Malformed),
+        };
+        if let Some(status) = status {
+            ack(Telemetry::Ack { seq, status });
+        }
+    }
+
+    /// Routes a checked command; `None` when navigation acknowledges it.
+    fn take(&mut self, seq: u16, c: Command, route: &mut impl FnMut(Route)) -> Option<Status> {
+        let mut cfg = self.config;
+        match c {
+            Command::Stop {} => {
+                route(Route::Control(ControlCmd::Stop));
+                return Some(Status::Accepted);
+            }
+            Command::Start {} => {
+                route(Route::Nav(NavCmd::Start { seq }));
+                return None;
+            }
+            Command::Recalibrate {} => {
+                route(Route::Nav(NavCmd::Recalibrate { seq }));
+                return None;
+            }
+            Command::GnssFix { t_valid_us, fix } => {
+                route(Route::Nav(NavCmd::Fix {
+                    seq,
+                    t_valid_us,
+                    fix,
+                }));
+                return None;
+            }
+            Command::SetScheme {
+                kind,
+                rate_dps,
+                count,
+            } => {
+                cfg.scheme = kind;
+                cfg.rate_dps = rate_dps;
+                cfg.count = count;
+                if Profile::new(scheme(&cfg), self.limits).is_err() {
+                    return Some(Status::BadRate);
+                }
+            }
+            Command::SetSite { lat_e7, height_mm } => {
+                cfg.lat_e7 = lat_e7;
+                cfg.height_mm = height_mm;
+            }
+            Command::SetBase {
+                roll_deg,
+                pitch_deg,
+                heading_deg,
+            } => cfg.base_deg = [roll_deg, pitch_deg, heading_deg],
+            Command::SetAided { on, lon_e7 } => {
+                cfg.aided = on == 1;
+                cfg.lon_e7 = lon_e7;
+            }
+        }
+        self.config = cfg;
+        route(Route::Config(cfg));
+        Some(Status::Accepted)
+    }
+
+    /// The configuration as telemetry.
+    pub fn config_report(&self) -> Telemetry {
+        let c = &self.config;
+        Telemetry::Config {
+            lat_e7: c.lat_e7,
+            height_mm: c.height_mm,
+            base_deg: c.base_deg,
+            scheme: c.scheme,
+            rate_dps: c.rate_dps,
+            count: c.count,
+            aided: u8::from(c.aided),
+            lon_e7: c.lon_e7,
+        }
+    }
+
+    /// Frames `t` with the link's next sequence number and hands it to
+    /// `send` whole (`send` returns false when it has no room: the frame
+    /// is dropped and counted, and its sequence number stays used, so the
+    /// host counts it lost).
+    pub fn send(&mut self, t: &Telemetry, send: &mut impl FnMut(&[u8]) -> bool) {
+        let mut f = [0u8; MAX_FRAME];
+        let seq = self.seq;
+        self.seq = self.seq.wrapping_add(1);
+        let Ok(n) = t.to_frame(seq, &mut f) else {
+            return;
+        };
+        if !send(f.get(..n).unwrap_or(&[])) {
+            self.tx_dropped = self.tx_dropped.saturating_add(1);
+        }
+    }
+}

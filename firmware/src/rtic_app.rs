@@ -1,0 +1,201 @@
+//! The board's RTIC 2 app: the peripherals wired to the program in
+//! `firmware::tasks`, with the tasks and priorities it names. Both
+//! binaries are this app: `main.rs` with the board's peripherals
+//! (`hw_board.rs`), `bin/qemu.rs` with the sensors QEMU lacks replayed, the
+//! clock set-up skipped (QEMU has no RCC model) and the QEMU test's report
+//! (`hw_qemu.rs`). The USART, the timers, the interrupts, the tasks and
+//! their priorities are the same code in both (`hw_common.rs`).
+
+#[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
+mod app {
+    use crate::hw;
+    use core::sync::atomic::Ordering;
+    use firmware::record::Journal;
+    use firmware::tasks::{Boot, LinkTask, NavTask, Program, Queues, Stats, TickTask, UartEnds};
+    use stm32f4xx_hal::pac::{self, Interrupt};
+
+    #[shared]
+    struct Shared {
+        /// USART3 (its interrupt enables are touched by the link task).
+        usart: pac::USART3,
+        /// The motor (the link task turns it off when the IMU is silent).
+        motor: hw::BoardMotor,
+    }
+
+    #[local]
+    struct Local {
+        tick: &'static mut TickTask<'static>,
+        nav: &'static mut NavTask<'static>,
+        link: &'static mut LinkTask<'static>,
+        uart: &'static mut UartEnds<'static>,
+        imu: hw::BoardImu,
+        encoder: hw::BoardEncoder,
+        flash: hw::BoardFlash,
+        wdg: hw::BoardWatchdog,
+        clock_tick: firmware::clock::Clock64,
+        clock_link: firmware::clock::Clock64,
+        tim3: pac::TIM3,
+        tim2: pac::TIM2,
+    }
+
+    /// Builds the program into its static (`slot`) in a frame of its own,
+    /// gone when it returns: `main`, which `idle` runs on, keeps only
+    /// references to the tasks (their 33 KiB built by value there would be
+    /// stack the tasks could never use).
+    #[inline(never)]
+    fn boot(
+        slot: &'static mut Option<Program<'static>>,
+        queues: &'static mut Queues,
+        journal: Journal,
+        boot: Boot,
+    ) -> &'static mut Program<'static> {
+        let program = match Program::new(queues, journal, boot) {
+            Ok(p) => p,
+            Err(_) => hw::halt("the configuration is out of the table's limits"),
+        };
+        slot.insert(program)
+    }
+
+    #[init(local = [queues: Queues = Queues::new(), program: Option<Program<'static>> = None])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        hw::paint_stack();
+        let mut core = cx.core;
+        let dp = cx.device;
+        let reset = hw::reset_cause(&dp.RCC);
+        hw::freeze_for_debugger(&dp.DBGMCU);
+        hw::start_cycle_counter(&mut core.DCB, &mut core.DWT, core.SYST);
+        let board = hw::Board::new(dp);
+        let start = hw::clock_start(&board.tim5);
+        let mut flash = board.flash;
+        // The only erases: here, before the watchdog and the tick start.
+        let journal = match Journal::open(&mut flash, hw::JOURNAL) {
+            Ok(j) => j,
+            Err(_) => Journal::blank(hw::JOURNAL),
+        };
+        let boot = Boot {
+            now_us: u64::from(start),
+            reset,
+            imu: board.imu_status,
+            tuning: hw::tuning(),
+        };
+        let program = self::boot(cx.local.program, cx.local.queues, journal, boot);
+        let Program {
+            tick,
+            nav,
+            link,
+            uart,
+        } = program;
+        let mut wdg = board.wdg;
+        wdg.start();
+        hw::enable_interrupts(board.imu_status.is_ok());
+        (
+            Shared {
+                usart: board.usart,
+                motor: board.motor,
+            },
+            Local {
+                tick,
+                nav,
+                link,
+                uart,
+                imu: board.imu,
+                encoder: board.encoder,
+                flash,
+                wdg,
+                clock_tick: firmware::clock::Clock64::new(start),
+                clock_link: firmware::clock::Clock64::new(start),
+                tim3: board.tim3,
+                tim2: board.tim2,
+            },
+        )
+    }
+
+    /// USART3 (priority 4, the top): one byte in or out. Nothing may hold
+    /// it off for more than a byte (11 µs at 921,600 baud): no task takes a
+    /// lock at this priority for longer than a register write.
+    #[task(binds = USART3, priority = 4, shared = [usart], local = [uart])]
+    fn uart(mut cx: uart::Context) {
+        let uart = cx.local.uart;
+        cx.shared
+            .usart
+            .lock(|u| hw::usart_service(u, uart, &hw::STATS));
+    }
+
+    /// The control tick (priority 3): the IMU's data-ready edge (EXTI4 on
+    /// PC4, the IMU's INT1).
+    #[task(binds = EXTI4, priority = 3, shared = [motor], local = [tick, imu, encoder, clock_tick])]
+    fn tick(mut cx: tick::Context) {
+        let c0 = hw::cycles();
+        hw::clear_data_ready();
+        let now = cx.local.clock_tick.extend(hw::clock_now());
+        let (tick, imu, enc) = (cx.local.tick, cx.local.imu, cx.local.encoder);
+        let pend = cx
+            .shared
+            .motor
+            .lock(|m| tick.run(now, imu, enc, m, &hw::STATS));
+        if pend || hw::replay_done() {
+            rtic::pend(Interrupt::SPI3);
+        }
+        if hw::tick_pending() {
+            hw::STATS.tick_overruns.fetch_add(1, Ordering::Relaxed);
+        }
+        Stats::worst(&hw::STATS.tick_worst, hw::since(c0));
+    }
+
+    /// Navigation (priority 2): pended by the tick (SPI3's vector, unused).
+    #[task(binds = SPI3, priority = 2, local = [nav])]
+    fn nav(cx: nav::Context) {
+        let c0 = hw::cycles();
+        cx.local.nav.run(&hw::STATS);
+        let stressed = hw::stress();
+        if !stressed {
+            Stats::worst(&hw::STATS.nav_worst, hw::since(c0));
+        }
+        hw::after_nav(cx.local.nav);
+    }
+
+    /// The link, the flash journal, supervision and the watchdog
+    /// (priority 1, TIM3 at 100 Hz).
+    #[task(binds = TIM3, priority = 1, shared = [usart, motor], local = [link, flash, wdg, tim3, clock_link])]
+    fn link(mut cx: link::Context) {
+        let c0 = hw::cycles();
+        hw::clear_tim3(cx.local.tim3);
+        let now = cx.local.clock_link.extend(hw::clock_now());
+        let out = cx
+            .local
+            .link
+            .run(now, cx.local.flash, cx.local.wdg, &hw::STATS);
+        if out.motor_off {
+            cx.shared
+                .motor
+                .lock(|m| firmware::tasks::Motor::set(m, 0.0));
+        }
+        if out.tx_pending {
+            cx.shared.usart.lock(hw::listen_tx);
+        }
+        hw::after_link(cx.local.link);
+        Stats::worst(&hw::STATS.link_worst, hw::since(c0));
+    }
+
+    /// The QEMU build's stand-in for the IMU's data-ready line: 1 kHz from
+    /// TIM2 (priority 5, as an edge on a pin would be). On the board TIM2
+    /// is never started and this never runs.
+    #[task(binds = TIM2, priority = 5, local = [tim2])]
+    fn data_ready(cx: data_ready::Context) {
+        hw::clear_tim2(cx.local.tim2);
+        if hw::sensors_on() {
+            hw::count_edge();
+            rtic::pend(Interrupt::EXTI4);
+        }
+    }
+
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        hw::repaint_after_init();
+        loop {
+            // DBGMCU keeps the debug clocks running in sleep, so RTT and
+            // the probe keep working (set in `init`).
+            cortex_m::asm::wfi();
+        }
+    }
+}

@@ -1,0 +1,677 @@
+//! The board's program: what runs at which priority, in which order, and
+//! what passes between the tasks. Written once, generic over the
+//! peripherals; the board's RTIC app (`main.rs`), its QEMU build (the same
+//! app with the sensors replayed) and the host tests all run it.
+//!
+//! | task | priority | paced by | does |
+//! | --- | --- | --- | --- |
+//! | UART | 4 (top) | RXNE / TXE | one byte to / from the queues |
+//! | [`TickTask`] | 3 | the IMU's data-ready (1 kHz) | IMU read, rate loop, encoder at 50 Hz, motor |
+//! | [`NavTask`] | 2 | pended by the tick every 10th sample | calibration, strapdown, aided filter |
+//! | [`LinkTask`] | 1 | a 100 Hz timer | commands, telemetry, the flash journal, supervision, the watchdog |
+//!
+//! The tick is driven by the IMU's data-ready interrupt, so the sensor's
+//! oscillator is the time base (as flight controllers do): the rate loop
+//! runs once per sample, never on a sample twice or between samples, and
+//! [`crate::clock::SampleClock`] counts samples dropped or duplicated.
+//! The UART's interrupt is above the tick: a byte arrives every 11 µs at
+//! 921,600 baud and the tick may take 200 µs.
+//!
+//! Between tasks only lock-free single-producer single-consumer queues
+//! (heapless `spsc`) and atomic counters: no task ever waits for a lower
+//! one, and a full queue is a counted fault, never a wait.
+
+use crate::clock::{Edge, SampleClock};
+use crate::control::{Control, ControlCmd, ControlConfig, NavInput};
+use crate::faults::Fault;
+use crate::icm42688::{RawSample, Sample};
+use crate::link::{scheme, Link, Route};
+use crate::navigation::{BoardAided, NavCmd, NavConfig, Navigator, Outbound};
+use crate::record::{Flash, Journal};
+use crate::watchdog::{Feeder, Progress};
+use core::sync::atomic::{AtomicU32, Ordering};
+use core_nav::aided::{AidedConfig, OriginE7};
+use heapless::spsc::{Consumer, Producer, Queue};
+use protocol::record::BoardConfig;
+use protocol::{ResetCause, SchemeKind, Telemetry};
+
+/// Navigation inputs queued (80 ms of them).
+pub const NAV_Q: usize = 8;
+/// Commands queued for a task.
+pub const CMD_Q: usize = 8;
+/// Telemetry queued by a task for the link.
+pub const OUT_Q: usize = 32;
+/// Received bytes queued (11 ms at 921,600 baud: the link task runs every 10 ms).
+pub const RX_Q: usize = 1024;
+/// Bytes queued to transmit.
+pub const TX_Q: usize = 2048;
+/// No IMU sample for this long stops the motor, µs.
+pub const IMU_TIMEOUT_US: u32 = 100_000;
+/// Health telemetry every this long, µs.
+pub const HEALTH_EVERY_US: u64 = 1_000_000;
+
+/// The IMU behind its data-ready line.
+pub trait Imu {
+    /// Reads the sample behind a data-ready edge: `Ok(None)` when the
+    /// sensor says there is no new data, `Err` when the bus failed.
+    ///
+    /// # Errors
+    /// The bus failed.
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, ()>;
+}
+
+/// The table's encoder.
+pub trait Encoder {
+    /// The 16-bit hardware count.
+    fn count(&mut self) -> u16;
+}
+
+/// The table's motor.
+pub trait Motor {
+    /// Duty in [-1, 1], the sign the direction.
+    fn set(&mut self, duty: f32);
+}
+
+/// The hardware watchdog.
+pub trait Watchdog {
+    /// Feeds it.
+    fn feed(&mut self);
+}
+
+/// Counters every task writes and the link reports.
+#[derive(Debug, Default)]
+pub struct Stats {
+    /// The tasks' progress (the watchdog's rule).
+    pub progress: Progress,
+    /// The tick's worst case, cycles (instructions under QEMU).
+    pub tick_worst: AtomicU32,
+    /// Ticks still running when the next data-ready came.
+    pub tick_overruns: AtomicU32,
+    /// Navigation's worst case, cycles.
+    pub nav_worst: AtomicU32,
+    /// Navigation inputs dropped (its queue full).
+    pub nav_overruns: AtomicU32,
+    /// The link task's worst case, cycles.
+    pub link_worst: AtomicU32,
+    /// Samples dropped (data-ready late).
+    pub dropped: AtomicU32,
+    /// Data-ready edges without new data.
+    pub duplicated: AtomicU32,
+    /// Bytes received by the UART.
+    pub rx_bytes: AtomicU32,
+    /// Bytes lost on receive (overrun flag, queue full).
+    pub rx_lost: AtomicU32,
+    /// Telemetry lost in the tasks' queues.
+    pub out_lost: AtomicU32,
+    /// The MCU clock's low 32 bits at the last IMU sample, µs.
+    pub last_sample_us: AtomicU32,
+    /// Samples taken.
+    pub samples: AtomicU32,
+}
+
+impl Stats {
+    /// Keeps the worst of `cycles` in `slot`.
+    pub fn worst(slot: &AtomicU32, cycles: u32) {
+        slot.fetch_max(cycles, Ordering::Relaxed);
+    }
+}
+
+/// Everything compiled in: the chip's and the table's tuning, not the
+/// site's (that is [`BoardConfig`], set by commands and stored).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tuning {
+    /// The tick's settings.
+    pub control: ControlConfig,
+    /// Navigation's settings apart from the configuration's.
+    pub nav: NavConfig,
+    /// The aided filter's noise model for this IMU.
+    pub filter: AidedConfig,
+}
+
+/// The configuration a blank board starts with: the equator at sea level,
+/// a level base heading north, 30 deg/s continuous, not aided. A user sets
+/// their own with `rins command` (it is stored).
+pub const FACTORY: BoardConfig = BoardConfig {
+    lat_e7: 0,
+    height_mm: 0,
+    base_deg: [0.0; 3],
+    scheme: SchemeKind::Continuous,
+    rate_dps: 30.0,
+    count: 0,
+    aided: false,
+    lon_e7: 0,
+};
+
+/// Navigation's settings for a configuration.
+pub fn nav_config(c: &BoardConfig, t: &Tuning) -> NavConfig {
+    let lat = f64::from(c.lat_e7) * 1e-7;
+    let h = f64::from(c.height_mm) * 1e-3;
+    let rate = match scheme(c) {
+        core_nav::scheme::Scheme::Still => 0.0,
+        core_nav::scheme::Scheme::Continuous { rate }
+        | core_nav::scheme::Scheme::Reciprocating { rate, .. }
+        | core_nav::scheme::Scheme::Indexed { rate, .. } => rate,
+    };
+    NavConfig {
+        lat_deg: lat,
+        height_m: h,
+        base_deg: c.base_deg.map(f64::from),
+        scheme_rate_radps: rate,
+        aided: c.aided.then_some(BoardAided {
+            origin: OriginE7 {
+                lat_e7: c.lat_e7,
+                lon_e7: c.lon_e7,
+                height_mm: c.height_mm,
+            },
+            cfg: t.filter,
+        }),
+        ..t.nav
+    }
+}
+
+/// The program's static memory: the queues between the tasks and the
+/// filter's workspace (a static on the board, never on a stack).
+pub struct Queues {
+    ws: core_nav::eskf::Workspace<f32>,
+    nav_in: Queue<NavInput, NAV_Q>,
+    nav_ctl: Queue<ControlCmd, CMD_Q>,
+    link_ctl: Queue<ControlCmd, CMD_Q>,
+    nav_cmd: Queue<NavCmd, CMD_Q>,
+    tick_out: Queue<Telemetry, OUT_Q>,
+    nav_out: Queue<Outbound, OUT_Q>,
+    rx: Queue<u8, RX_Q>,
+    tx: Queue<u8, TX_Q>,
+}
+
+impl Default for Queues {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Queues {
+    /// Empty queues.
+    pub const fn new() -> Self {
+        Self {
+            ws: core_nav::eskf::Workspace::ZERO,
+            nav_in: Queue::new(),
+            nav_ctl: Queue::new(),
+            link_ctl: Queue::new(),
+            nav_cmd: Queue::new(),
+            tick_out: Queue::new(),
+            nav_out: Queue::new(),
+            rx: Queue::new(),
+            tx: Queue::new(),
+        }
+    }
+}
+
+/// The UART interrupt's ends of the byte queues.
+pub struct UartEnds<'a> {
+    /// Received bytes in.
+    pub rx: Producer<'a, u8>,
+    /// Bytes to send out.
+    pub tx: Consumer<'a, u8>,
+}
+
+impl UartEnds<'_> {
+    /// A received byte (`overrun`: the UART lost bytes before it).
+    pub fn received(&mut self, b: u8, overrun: bool, stats: &Stats) {
+        stats.rx_bytes.fetch_add(1, Ordering::Relaxed);
+        if overrun {
+            stats.rx_lost.fetch_add(1, Ordering::Relaxed);
+        }
+        if self.rx.enqueue(b).is_err() {
+            stats.rx_lost.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// The next byte to send, if any.
+    pub fn next_tx(&mut self) -> Option<u8> {
+        self.tx.dequeue()
+    }
+}
+
+/// The board as it boots: the tasks and the UART's queue ends.
+pub struct Program<'a> {
+    /// The control tick.
+    pub tick: TickTask<'a>,
+    /// Navigation.
+    pub nav: NavTask<'a>,
+    /// The link.
+    pub link: LinkTask<'a>,
+    /// The UART interrupt's ends.
+    pub uart: UartEnds<'a>,
+}
+
+/// What the boot knows.
+#[derive(Clone, Copy, Debug)]
+pub struct Boot {
+    /// The MCU clock now, µs.
+    pub now_us: u64,
+    /// Why the board reset.
+    pub reset: ResetCause,
+    /// The IMU answered at init (`Err(fault)`: it did not: a stopped
+    /// board that reports, with no tick).
+    pub imu: Result<(), Fault>,
+    /// The compiled-in tuning.
+    pub tuning: Tuning,
+}
+
+impl<'a> Program<'a> {
+    /// The program over `queues`, with the journal opened at boot.
+    ///
+    /// # Errors
+    /// The tuning's scheme or the stored one is out of the table's limits
+    /// (the factory configuration is then used; if that fails too, a build
+    /// error the host tests catch).
+    pub fn new(
+        queues: &'a mut Queues,
+        journal: Journal,
+        boot: Boot,
+    ) -> Result<Self, core_nav::NavError> {
+        let stored = journal.current;
+        let mut config = stored.map_or(FACTORY, |r| r.config);
+        let t = boot.tuning;
+        let control = match Control::new(t.control, scheme(&config)) {
+            Ok(c) => c,
+            Err(_) => {
+                config = FACTORY;
+                Control::new(t.control, scheme(&config))?
+            }
+        };
+        let (nav_in_p, nav_in_c) = queues.nav_in.split();
+        let (nav_ctl_p, nav_ctl_c) = queues.nav_ctl.split();
+        let (link_ctl_p, link_ctl_c) = queues.link_ctl.split();
+        let (nav_cmd_p, nav_cmd_c) = queues.nav_cmd.split();
+        let (tick_out_p, tick_out_c) = queues.tick_out.split();
+        let (nav_out_p, nav_out_c) = queues.nav_out.split();
+        let (rx_p, rx_c) = queues.rx.split();
+        let ws = &mut queues.ws;
+        let (tx_p, tx_c) = queues.tx.split();
+        let mut navigator = Navigator::new(
+            nav_config(&config, &t),
+            boot.now_us,
+            stored.and_then(|r| r.calibration),
+            t.filter,
+            ws,
+        );
+        let mut link = LinkTask {
+            link: Link::new(config, t.control.limits),
+            journal,
+            rx: rx_c,
+            tx: tx_p,
+            from_tick: tick_out_c,
+            from_nav: nav_out_c,
+            to_tick: link_ctl_p,
+            to_nav: nav_cmd_p,
+            feeder: Feeder::default(),
+            sensors: boot.imu.is_ok(),
+            clock_start: boot.now_us,
+            last_health: None,
+            timed_out: false,
+            reset: boot.reset,
+            tuning: t,
+            boot_reports: [None; 3],
+        };
+        link.boot_reports = [
+            Some(link.link.config_report()),
+            navigator.stored_report(),
+            None,
+        ];
+        if let Err(f) = boot.imu {
+            // No IMU: the board stays stopped, reports, and runs no tick.
+            let mut sink = |_o: Outbound| {};
+            navigator.input(
+                &NavInput {
+                    t_us: boot.now_us,
+                    mean: Sample::default(),
+                    angle: Default::default(),
+                    table_rate_radps: 0.0,
+                    encoder_seen: false,
+                    table_moved: false,
+                    rate_ok_since: None,
+                    stopped: Some(f),
+                },
+                &mut sink,
+                &mut |_c| {},
+            );
+            link.boot_reports[2] = Some(Telemetry::Fault {
+                t_us: boot.now_us,
+                fault: f,
+                count: 1,
+            });
+        }
+        Ok(Self {
+            tick: TickTask {
+                control,
+                clock: SampleClock::new(t.control.sample_period_us),
+                nav_in: nav_in_p,
+                from_nav: nav_ctl_c,
+                from_link: link_ctl_c,
+                out: tick_out_p,
+            },
+            nav: NavTask {
+                nav: navigator,
+                input: nav_in_c,
+                cmds: nav_cmd_c,
+                ctl: nav_ctl_p,
+                out: nav_out_p,
+            },
+            link,
+            uart: UartEnds { rx: rx_p, tx: tx_c },
+        })
+    }
+}
+
+/// The control tick (priority 3).
+pub struct TickTask<'a> {
+    /// Its logic.
+    pub control: Control,
+    /// The sensor's sample clock.
+    pub clock: SampleClock,
+    nav_in: Producer<'a, NavInput>,
+    from_nav: Consumer<'a, ControlCmd>,
+    from_link: Consumer<'a, ControlCmd>,
+    out: Producer<'a, Telemetry>,
+}
+
+impl TickTask<'_> {
+    /// One data-ready edge at MCU time `mcu_us`; returns whether
+    /// navigation has an input to take (pend it).
+    pub fn run(
+        &mut self,
+        mcu_us: u64,
+        imu: &mut impl Imu,
+        enc: &mut impl Encoder,
+        motor: &mut impl Motor,
+        stats: &Stats,
+    ) -> bool {
+        stats.progress.tick.fetch_add(1, Ordering::Relaxed);
+        let out = &mut self.out;
+        let mut emit = |t: Telemetry| {
+            if out.enqueue(t).is_err() {
+                stats.out_lost.fetch_add(1, Ordering::Relaxed);
+            }
+        };
+        let read = imu.read();
+        let t_us = match self.clock.edge(mcu_us, !matches!(read, Ok(None))) {
+            Edge::Duplicate => {
+                stats.duplicated.fetch_add(1, Ordering::Relaxed);
+                if let Some(t) = self.control.faults.count(mcu_us, Fault::SampleDuplicated) {
+                    emit(t);
+                }
+                return false;
+            }
+            Edge::Sample { t_us, dropped } => {
+                if dropped > 0 {
+                    stats.dropped.fetch_add(dropped, Ordering::Relaxed);
+                    if let Some(t) = self.control.faults.count(t_us, Fault::SampleDropped) {
+                        emit(t);
+                    }
+                }
+                t_us
+            }
+        };
+        stats.last_sample_us.store(mcu_us as u32, Ordering::Relaxed);
+        stats.samples.fetch_add(1, Ordering::Relaxed);
+        while let Some(c) = self.from_link.dequeue().or_else(|| self.from_nav.dequeue()) {
+            self.control.command(t_us, c, &mut emit);
+        }
+        if self.control.encoder_due() {
+            let hw = enc.count();
+            self.control.encoder(t_us, hw, &mut emit);
+        }
+        let input = self.control.sample(t_us, read.ok().flatten(), &mut emit);
+        motor.set(self.control.duty());
+        let Some(x) = input else { return false };
+        if self.nav_in.enqueue(x).is_err() {
+            stats.nav_overruns.fetch_add(1, Ordering::Relaxed);
+            if let Some(t) = self.control.faults.count(t_us, Fault::NavOverrun) {
+                emit(t);
+            }
+        }
+        true
+    }
+}
+
+/// Navigation (priority 2).
+pub struct NavTask<'a> {
+    /// Its logic.
+    pub nav: Navigator<'a>,
+    input: Consumer<'a, NavInput>,
+    cmds: Consumer<'a, NavCmd>,
+    ctl: Producer<'a, ControlCmd>,
+    out: Producer<'a, Outbound>,
+}
+
+impl NavTask<'_> {
+    /// Takes the commands and the inputs queued.
+    pub fn run(&mut self, stats: &Stats) {
+        stats.progress.nav.fetch_add(1, Ordering::Relaxed);
+        let (out, ctl) = (&mut self.out, &mut self.ctl);
+        let mut emit = |o: Outbound| {
+            if out.enqueue(o).is_err() {
+                stats.out_lost.fetch_add(1, Ordering::Relaxed);
+            }
+        };
+        // A full command queue to the tick loses the command: counted as
+        // lost telemetry would be (the tick drains it every sample).
+        let mut control = |c: ControlCmd| {
+            if ctl.enqueue(c).is_err() {
+                stats.out_lost.fetch_add(1, Ordering::Relaxed);
+            }
+        };
+        while let Some(c) = self.cmds.dequeue() {
+            self.nav.command(c, &mut emit, &mut control);
+        }
+        while let Some(x) = self.input.dequeue() {
+            self.nav.input(&x, &mut emit, &mut control);
+        }
+    }
+}
+
+/// What the link task asks of its interrupt-level wiring.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LinkOut {
+    /// Bytes are queued: enable the UART's transmit interrupt.
+    pub tx_pending: bool,
+    /// The IMU is silent: the motor off now.
+    pub motor_off: bool,
+}
+
+/// The link, the flash journal, supervision and the watchdog (priority 1).
+pub struct LinkTask<'a> {
+    /// Its logic.
+    pub link: Link,
+    /// The flash record.
+    pub journal: Journal,
+    rx: Consumer<'a, u8>,
+    tx: Producer<'a, u8>,
+    from_tick: Consumer<'a, Telemetry>,
+    from_nav: Consumer<'a, Outbound>,
+    to_tick: Producer<'a, ControlCmd>,
+    to_nav: Producer<'a, NavCmd>,
+    feeder: Feeder,
+    sensors: bool,
+    clock_start: u64,
+    last_health: Option<u64>,
+    timed_out: bool,
+    reset: ResetCause,
+    tuning: Tuning,
+    boot_reports: [Option<Telemetry>; 3],
+}
+
+impl LinkTask<'_> {
+    /// Commands received so far (the QEMU harness waits for the host's
+    /// configuration before it powers the sensors).
+    pub fn commands(&self) -> u32 {
+        self.link.commands
+    }
+
+    /// One run (every 10 ms).
+    pub fn run(
+        &mut self,
+        mcu_us: u64,
+        flash: &mut impl Flash,
+        wdg: &mut impl Watchdog,
+        stats: &Stats,
+    ) -> LinkOut {
+        stats.progress.link.fetch_add(1, Ordering::Relaxed);
+        let mut o = LinkOut::default();
+        for t in self.boot_reports.iter_mut().filter_map(Option::take) {
+            send(&mut self.link, &mut self.tx, &t);
+        }
+        self.receive(mcu_us, stats);
+        while let Some(t) = self.from_tick.dequeue() {
+            send(&mut self.link, &mut self.tx, &t);
+        }
+        while let Some(x) = self.from_nav.dequeue() {
+            match x {
+                Outbound::Telemetry(t) => send(&mut self.link, &mut self.tx, &t),
+                Outbound::Store(c) => self.store(mcu_us, Some(c), stats),
+            }
+        }
+        if self.journal.step(flash).is_err() {
+            self.fault(mcu_us, Fault::FlashError);
+        }
+        o.motor_off = self.supervise(mcu_us, stats);
+        if self
+            .last_health
+            .is_none_or(|t| mcu_us.saturating_sub(t) >= HEALTH_EVERY_US)
+        {
+            self.last_health = Some(mcu_us);
+            let h = self.health(mcu_us, stats);
+            send(&mut self.link, &mut self.tx, &h);
+        }
+        if self.feeder.check(&stats.progress, self.sensors) {
+            wdg.feed();
+        }
+        o.tx_pending = self.tx.len() > 0;
+        o
+    }
+
+    fn receive(&mut self, mcu_us: u64, stats: &Stats) {
+        let mut routes: heapless::Vec<Route, 4> = heapless::Vec::new();
+        while let Some(b) = self.rx.dequeue() {
+            let (link, tx) = (&mut self.link, &mut self.tx);
+            let mut acks: heapless::Vec<Telemetry, 1> = heapless::Vec::new();
+            link.rx(
+                b,
+                &mut |r| {
+                    let _ = routes.push(r);
+                },
+                &mut |t| {
+                    let _ = acks.push(t);
+                },
+            );
+            for a in &acks {
+                send(link, tx, a);
+            }
+            for r in routes.iter().copied() {
+                self.route(mcu_us, r, stats);
+            }
+            routes.clear();
+        }
+    }
+
+    fn route(&mut self, mcu_us: u64, r: Route, stats: &Stats) {
+        match r {
+            Route::Control(c) => {
+                if self.to_tick.enqueue(c).is_err() {
+                    stats.out_lost.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            Route::Nav(c) => {
+                if self.to_nav.enqueue(c).is_err() {
+                    stats.out_lost.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+            Route::Config(cfg) => {
+                let cal = self.journal.current.and_then(|r| r.calibration);
+                self.store(mcu_us, cal, stats);
+                let _ = self.to_tick.enqueue(ControlCmd::Scheme(scheme(&cfg)));
+                let _ = self
+                    .to_nav
+                    .enqueue(NavCmd::Config(nav_config(&cfg, &self.tuning)));
+                let t = self.link.config_report();
+                send(&mut self.link, &mut self.tx, &t);
+            }
+        }
+    }
+
+    fn store(
+        &mut self,
+        mcu_us: u64,
+        cal: Option<protocol::record::StoredCalibration>,
+        _stats: &Stats,
+    ) {
+        if self.journal.write(self.link.config, cal).is_err() {
+            self.fault(mcu_us, Fault::FlashError);
+        }
+    }
+
+    fn fault(&mut self, t_us: u64, f: Fault) {
+        let t = Telemetry::Fault {
+            t_us,
+            fault: f,
+            count: 1,
+        };
+        send(&mut self.link, &mut self.tx, &t);
+    }
+
+    /// The IMU silent for [`IMU_TIMEOUT_US`] while the board runs: the
+    /// motor off (the caller), the tick told (it stops the scheme when
+    /// samples come back) and the fault reported, once.
+    fn supervise(&mut self, mcu_us: u64, stats: &Stats) -> bool {
+        if !self.sensors || stats.samples.load(Ordering::Relaxed) == 0 {
+            return false;
+        }
+        let last = stats.last_sample_us.load(Ordering::Relaxed);
+        // Signed: a tick that preempted this task since it read the clock
+        // stored a later time than `mcu_us`.
+        let silent = (mcu_us as u32).wrapping_sub(last) as i32 > IMU_TIMEOUT_US as i32;
+        if silent && !self.timed_out {
+            self.timed_out = true;
+            let _ = self.to_tick.enqueue(ControlCmd::Halt(Fault::ImuTimeout));
+            self.fault(mcu_us, Fault::ImuTimeout);
+        }
+        if !silent {
+            self.timed_out = false;
+        }
+        silent
+    }
+
+    fn health(&self, mcu_us: u64, stats: &Stats) -> Telemetry {
+        let l = |a: &AtomicU32| a.load(Ordering::Relaxed);
+        Telemetry::Health {
+            t_us: mcu_us,
+            reset: self.reset,
+            tick_worst: l(&stats.tick_worst),
+            tick_overruns: l(&stats.tick_overruns),
+            nav_worst: l(&stats.nav_worst),
+            nav_overruns: l(&stats.nav_overruns),
+            samples_dropped: l(&stats.dropped),
+            samples_duplicated: l(&stats.duplicated),
+            rx_bytes: l(&stats.rx_bytes),
+            rx_lost: l(&stats.rx_lost),
+        }
+    }
+
+    /// When the board started, µs.
+    pub fn started_us(&self) -> u64 {
+        self.clock_start
+    }
+}
+
+fn send(link: &mut Link, tx: &mut Producer<'_, u8>, t: &Telemetry) {
+    link.send(t, &mut |bytes| {
+        if tx.capacity() - tx.len() < bytes.len() {
+            return false;
+        }
+        for b in bytes {
+            let _ = tx.enqueue(*b);
+        }
+        true
+    });
+}

@@ -1,0 +1,232 @@
+//! The board's program on the host: the same tasks (`firmware::tasks`) in
+//! the order the board's priorities give them (the UART's bytes, then the
+//! tick at each data-ready edge, navigation when the tick pends it, the
+//! link task every 10 ms), over any sensors (hal-sim's, or a replay's).
+//! The closed-loop tests and the QEMU test's host twin run it.
+
+use firmware::protocol::Command;
+use firmware::record::{Flash, FlashError, Journal, Sector};
+use firmware::tasks::{Boot, Encoder, Imu, Motor, Program, Queues, Stats, Tuning, Watchdog};
+use protocol::MAX_FRAME;
+
+/// NOR flash in memory (programs only clear bits; erases set them), with
+/// an optional cut: after `cut_after` operations every write is lost, as
+/// when power fails (the word being written when it does holds garbage).
+#[derive(Clone, Debug)]
+pub struct NorFlash {
+    /// The bytes (address 0 first).
+    pub mem: Vec<u8>,
+    /// Operations left before the power fails (`None`: it never does).
+    pub cut_after: Option<usize>,
+    /// Operations done.
+    pub ops: usize,
+}
+
+impl NorFlash {
+    /// `len` bytes, erased.
+    pub fn new(len: usize) -> Self {
+        Self {
+            mem: vec![0xFF; len],
+            cut_after: None,
+            ops: 0,
+        }
+    }
+
+    /// Whether this operation completes (`Full`), is the one the power
+    /// fails in (`Cut`), or comes after (`Off`).
+    fn power(&mut self) -> Power {
+        let n = self.ops;
+        self.ops += 1;
+        match self.cut_after {
+            Some(c) if n > c => Power::Off,
+            Some(c) if n == c => Power::Cut,
+            _ => Power::Full,
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Power {
+    Full,
+    Cut,
+    Off,
+}
+
+impl Flash for NorFlash {
+    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), FlashError> {
+        let a = addr as usize;
+        buf.copy_from_slice(
+            self.mem
+                .get(a..a + buf.len())
+                .ok_or(FlashError::OutOfRange)?,
+        );
+        Ok(())
+    }
+    fn program_word(&mut self, addr: u32, word: u32) -> Result<(), FlashError> {
+        let a = addr as usize;
+        let p = self.power();
+        let d = self.mem.get_mut(a..a + 4).ok_or(FlashError::OutOfRange)?;
+        // Cut mid-word: the first byte made it, the rest did not.
+        let bytes = match p {
+            Power::Full => 4,
+            Power::Cut => 1,
+            Power::Off => 0,
+        };
+        for (x, w) in d.iter_mut().zip(word.to_le_bytes()).take(bytes) {
+            *x &= w;
+        }
+        Ok(())
+    }
+    fn erase(&mut self, s: Sector) -> Result<(), FlashError> {
+        let p = self.power();
+        let a = s.base as usize;
+        let d = self
+            .mem
+            .get_mut(a..a + s.len as usize)
+            .ok_or(FlashError::OutOfRange)?;
+        match p {
+            Power::Full => d.fill(0xFF),
+            // Half erased: the rest keeps its old bits.
+            Power::Cut => {
+                let half = d.len() / 2;
+                d[..half].fill(0xFF);
+            }
+            Power::Off => {}
+        }
+        Ok(())
+    }
+}
+
+/// The journal's sectors on the host and under QEMU: two of 2 KiB.
+pub const JOURNAL: [Sector; 2] = [
+    Sector {
+        number: 10,
+        base: 0,
+        len: 2048,
+    },
+    Sector {
+        number: 11,
+        base: 2048,
+        len: 2048,
+    },
+];
+
+/// A watchdog that counts its feeds.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CountingWatchdog {
+    /// Feeds.
+    pub feeds: u32,
+}
+impl Watchdog for CountingWatchdog {
+    fn feed(&mut self) {
+        self.feeds += 1;
+    }
+}
+
+/// The board's program on the host.
+pub struct HostBoard {
+    /// The tasks.
+    pub program: Program<'static>,
+    /// Their counters.
+    pub stats: &'static Stats,
+    /// The flash.
+    pub flash: NorFlash,
+    /// The watchdog.
+    pub wdg: CountingWatchdog,
+    /// The MCU clock, µs.
+    pub mcu_us: u64,
+    next_link_us: u64,
+    /// Every byte the board sent.
+    pub sent: Vec<u8>,
+    seq: u16,
+}
+
+impl HostBoard {
+    /// The board booting at MCU time `now_us` on `flash`.
+    pub fn new(
+        tuning: Tuning,
+        mut flash: NorFlash,
+        now_us: u64,
+        imu_ok: Result<(), firmware::faults::Fault>,
+    ) -> Self {
+        let queues: &'static mut Queues = Box::leak(Box::new(Queues::new()));
+        let stats: &'static Stats = Box::leak(Box::default());
+        let journal =
+            Journal::open(&mut flash, JOURNAL).unwrap_or_else(|_| Journal::blank(JOURNAL));
+        let program = Program::new(
+            queues,
+            journal,
+            Boot {
+                now_us,
+                reset: protocol::ResetCause::PowerOn,
+                imu: imu_ok,
+                tuning,
+            },
+        )
+        .expect("the tuning's scheme is within the limits");
+        Self {
+            program,
+            stats,
+            flash,
+            wdg: CountingWatchdog::default(),
+            mcu_us: now_us,
+            next_link_us: now_us,
+            sent: vec![],
+            seq: 0,
+        }
+    }
+
+    /// Bytes arriving at the board's UART.
+    pub fn receive(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.program.uart.received(*b, false, self.stats);
+        }
+    }
+
+    /// A command arriving whole (byte by byte through the UART's queue).
+    pub fn command(&mut self, c: &Command) {
+        let mut f = [0u8; MAX_FRAME];
+        let n = c.to_frame(self.seq, &mut f).expect("a frame fits");
+        self.seq = self.seq.wrapping_add(1);
+        self.receive(&f[..n]);
+    }
+
+    /// The link task if it is due (every 10 ms), and the UART's output.
+    pub fn link_due(&mut self) {
+        while self.mcu_us >= self.next_link_us {
+            self.next_link_us += 10_000;
+            let _ = self
+                .program
+                .link
+                .run(self.mcu_us, &mut self.flash, &mut self.wdg, self.stats);
+            while let Some(b) = self.program.uart.next_tx() {
+                self.sent.push(b);
+            }
+        }
+    }
+
+    /// Time passes without a data-ready edge (the IMU silent).
+    pub fn idle(&mut self, dt_us: u64) {
+        let end = self.mcu_us + dt_us;
+        while self.mcu_us < end {
+            self.mcu_us = (self.mcu_us + 1_000).min(end);
+            self.link_due();
+        }
+    }
+
+    /// One data-ready edge at the MCU time `mcu_us`: the tick, navigation
+    /// if pended, the link task if due.
+    pub fn edge(
+        &mut self,
+        mcu_us: u64,
+        imu: &mut impl Imu,
+        enc: &mut impl Encoder,
+        motor: &mut impl Motor,
+    ) {
+        self.mcu_us = mcu_us;
+        if self.program.tick.run(mcu_us, imu, enc, motor, self.stats) {
+            self.program.nav.run(self.stats);
+        }
+        self.link_due();
+    }
+}

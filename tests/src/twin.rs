@@ -1,0 +1,106 @@
+//! The QEMU test's host twin: a replay ([`protocol::replay`]) run through
+//! the board's program on the host ([`crate::board::HostBoard`]) as the
+//! QEMU build runs it: the configuration commands first (byte by byte
+//! through the UART's queue), then one data-ready edge a millisecond with
+//! the replay's sensors, each GNSS fix sent `fix_latency_us` after its
+//! time of validity (on the board's clock: the relay's mapping, the
+//! board's first IMU frame being the recording's first sample).
+
+use crate::board::{HostBoard, NorFlash};
+use firmware::replay::{
+    decode, outcome, record_body, Event, Header, Outcome, Sensors, HEADER, RECORD_HEAD,
+};
+use protocol::Command;
+
+/// The QEMU build's clock at boot (1.5 s below the u32 wrap).
+pub const CLOCK_START: u32 = u32::MAX - 1_500_000;
+
+/// What the twin's run came to.
+pub struct TwinRun {
+    /// The outcome (the trailer).
+    pub outcome: Outcome,
+    /// The board at the end.
+    pub board: HostBoard,
+    /// Fixes sent.
+    pub fixes: usize,
+}
+
+/// Runs `bytes` (a replay; its trailer ignored); `latency_us` overrides
+/// the header's fix latency.
+///
+/// # Panics
+/// A malformed replay (the twin is a test tool).
+pub fn run(bytes: &[u8], latency_us: Option<u64>) -> TwinRun {
+    let h = Header::decode(&bytes[..HEADER]).expect("a replay header");
+    let tuning = firmware::replay::tuning(&h, firmware::tuning::board());
+    let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
+    let mut events = vec![];
+    let mut at = HEADER;
+    for _ in 0..h.records {
+        let n = RECORD_HEAD + record_body(bytes[at]).expect("a known record");
+        events.push(decode(&bytes[at..at + n]).expect("a record"));
+        at += n;
+    }
+    for e in &events {
+        if let Event::Command { len, payload } = e {
+            let (_, c) = Command::decode(&payload[..usize::from(*len)]).expect("a command");
+            b.command(&c);
+        }
+    }
+    b.link_due();
+    let latency = latency_us.unwrap_or(u64::from(h.fix_latency_us));
+    let first_rec = events.iter().find_map(|e| match e {
+        Event::Imu { t_us, .. } => Some(*t_us),
+        _ => None,
+    });
+    let mut it = events
+        .into_iter()
+        .filter(|e| !matches!(e, Event::Command { .. }));
+    let mut s = Sensors::default();
+    let mut fixes: Vec<(u64, core_nav::aided::GnssFix)> = vec![];
+    let mut sent = 0;
+    let mut offset: Option<i64> = None;
+    let mut mcu = b.mcu_us;
+    let mut i = 0u64;
+    loop {
+        let more = s.advance(i, &mut || it.next(), &mut |e| {
+            if let Event::Gnss { t_us, fix } = e {
+                fixes.push((t_us, fix));
+            }
+        });
+        mcu += 1_000;
+        // The encoder and the motor: copies of the sensors after the
+        // advance (the same count; the duty is not used).
+        let (mut enc, mut motor) = (s, s);
+        b.edge(mcu, &mut s, &mut enc, &mut motor);
+        i += 1;
+        if offset.is_none() {
+            if let (Some(x), Some(r0)) = (b.program.nav.nav.last_input(), first_rec) {
+                offset = Some(x.t_us as i64 - r0 as i64);
+            }
+        }
+        if let (Some(o), Some(x)) = (offset, b.program.nav.nav.last_input().copied()) {
+            while let Some(&(t, fix)) = fixes.first() {
+                let tv = (t as i64 + o) as u64;
+                if tv + latency > x.t_us {
+                    break;
+                }
+                fixes.remove(0);
+                b.command(&Command::GnssFix {
+                    t_valid_us: tv,
+                    fix,
+                });
+                sent += 1;
+            }
+        }
+        if !more {
+            break;
+        }
+    }
+    b.program.nav.run(b.stats);
+    TwinRun {
+        outcome: outcome(&b.program.nav.nav),
+        board: b,
+        fixes: sent,
+    }
+}
