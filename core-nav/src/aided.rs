@@ -248,7 +248,7 @@ impl<T: Real> Default for Past<T> {
 pub enum FixAge {
     /// Older than the stored states.
     TooOld,
-    /// Later than the last sample.
+    /// Later than the next sample.
     FromTheFuture,
 }
 
@@ -376,10 +376,12 @@ impl<T: Real> AidedNav<T> {
     /// latency: position by the velocity error times it).
     ///
     /// # Errors
-    /// A time older than the stored states, or after the last sample.
+    /// A time older than the stored states, or after the next sample.
     pub fn gnss_at(&mut self, fix: &GnssFix, t_valid_us: u64) -> Result<(), FixAge> {
+        // The next step's state is stored before the fix is used: a time
+        // up to one sample interval ahead is in the stored states by then.
         let now = self.nav.state().t_us;
-        if t_valid_us > now {
+        if t_valid_us > now + 2 * self.half_period_us() {
             return Err(FixAge::FromTheFuture);
         }
         let oldest = self

@@ -65,8 +65,11 @@ pub struct BoardImu(Option<Icm42688<ImuSpi>>);
 impl firmware::tasks::Imu for BoardImu {
     fn read(
         &mut self,
-    ) -> Result<Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>, ()> {
-        self.0.as_mut().ok_or(())?.read()
+    ) -> Result<
+        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
+        firmware::tasks::BusError,
+    > {
+        self.0.as_mut().ok_or(firmware::tasks::BusError)?.read()
     }
 }
 
@@ -175,7 +178,7 @@ impl Flash for BoardFlash {
     }
 
     fn program_word(&mut self, addr: u32, word: u32) -> Result<(), FlashError> {
-        if !in_journal(addr, 4) || addr % 4 != 0 {
+        if !in_journal(addr, 4) || !addr.is_multiple_of(4) {
             return Err(FlashError::OutOfRange);
         }
         self.unlocked(|f| {
@@ -371,7 +374,10 @@ pub fn after_nav(_: &mut firmware::tasks::NavTask<'static>) {}
 /// probe reads it; the QEMU build prints it).
 pub fn after_link(_: &firmware::tasks::LinkTask<'static>) {
     static RUNS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
-    if RUNS.fetch_add(1, core::sync::atomic::Ordering::Relaxed) % 6_000 == 0 {
+    if RUNS
+        .fetch_add(1, core::sync::atomic::Ordering::Relaxed)
+        .is_multiple_of(6_000)
+    {
         defmt::info!("stack peak: {=u32} bytes", stack_peak());
     }
 }

@@ -125,7 +125,10 @@ impl BoardImu {
 impl Imu for BoardImu {
     fn read(
         &mut self,
-    ) -> Result<Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>, ()> {
+    ) -> Result<
+        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
+        firmware::tasks::BusError,
+    > {
         let i = self.reads;
         self.reads += 1;
         let mut s = self.sensors;

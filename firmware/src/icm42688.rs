@@ -330,11 +330,11 @@ impl DataMonitor {
 /// The driver behind the data-ready line: INT_STATUS says whether the
 /// data is new (a read clears it), then one burst read.
 impl<SPI: SpiDevice> crate::tasks::Imu for Icm42688<SPI> {
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, ()> {
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, crate::tasks::BusError> {
         match self.data_ready() {
             Ok(false) => Ok(None),
-            Ok(true) => self.read_si().map(Some).map_err(|_| ()),
-            Err(_) => Err(()),
+            Ok(true) => self.read_si().map(Some).map_err(|_| crate::tasks::BusError),
+            Err(_) => Err(crate::tasks::BusError),
         }
     }
 }

@@ -13,6 +13,8 @@ use protocol::record::BoardConfig;
 use protocol::{Command, FrameError, SchemeKind, Status, Telemetry, MAX_FRAME, MAX_PAYLOAD};
 
 /// Where a command goes.
+// A configuration is the large variant; no heap on the board.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Route {
     /// To the control tick (acknowledged here).

@@ -110,6 +110,9 @@ impl Mode {
 }
 
 /// A command for navigation (each with the sequence number it is acked with).
+// A configuration is the large variant: the queue's slots are sized for
+// it (8 of them); no heap on the board.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum NavCmd {
     /// A GNSS fix valid at `t_valid_us`.
@@ -173,6 +176,7 @@ pub struct Navigator<'a> {
     fixes: heapless::Deque<(u64, GnssFix), FIX_QUEUE>,
     /// Fixes applied after the horizon.
     pub fixes_late: u32,
+    saw_stop: bool,
     /// Fault counters.
     pub faults: FaultCounts,
 }
@@ -212,6 +216,7 @@ impl<'a> Navigator<'a> {
             last: None,
             fixes: heapless::Deque::new(),
             fixes_late: 0,
+            saw_stop: false,
             faults: FaultCounts::default(),
         }
     }
@@ -288,7 +293,11 @@ impl<'a> Navigator<'a> {
             accel_mps2: x.mean.accel_mps2,
             temp_c: x.mean.temp_c,
         }));
-        if let (Some(f), false) = (x.stopped, matches!(self.mode, Mode::Stopped(_))) {
+        // A stop the tick reports is taken once, when it begins (a start
+        // command may come before the tick has heard of it).
+        let new_stop = x.stopped.is_some() && !self.saw_stop;
+        self.saw_stop = x.stopped.is_some();
+        if let (Some(f), true) = (x.stopped, new_stop) {
             self.mode = Mode::Stopped(f);
             return;
         }

@@ -36,7 +36,7 @@ impl Sensors {
         let until = (i / 10 + 1) * 10_000;
         loop {
             let Some(e) = self.pending.take().or_else(&mut *next) else {
-                return self.sample.is_some() && i % 10 != 0;
+                return self.sample.is_some() && !i.is_multiple_of(10);
             };
             let t = match e {
                 Event::Imu { t_us, .. } | Event::Encoder { t_us, .. } => t_us,
@@ -81,7 +81,7 @@ impl Sensors {
 }
 
 impl Imu for Sensors {
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, ()> {
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, crate::tasks::BusError> {
         self.reads = self.reads.wrapping_add(1);
         // A distinct raw word per read (the held sample would otherwise
         // look stuck to the data monitor); never a full-scale value.

@@ -50,14 +50,18 @@ pub const IMU_TIMEOUT_US: u32 = 100_000;
 /// Health telemetry every this long, µs.
 pub const HEALTH_EVERY_US: u64 = 1_000_000;
 
+/// The IMU's bus failed (the sample is skipped and counted).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BusError;
+
 /// The IMU behind its data-ready line.
 pub trait Imu {
     /// Reads the sample behind a data-ready edge: `Ok(None)` when the
-    /// sensor says there is no new data, `Err` when the bus failed.
+    /// sensor says there is no new data.
     ///
     /// # Errors
     /// The bus failed.
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, ()>;
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, BusError>;
 }
 
 /// The table's encoder.
@@ -547,7 +551,7 @@ impl LinkTask<'_> {
         if self.feeder.check(&stats.progress, self.sensors) {
             wdg.feed();
         }
-        o.tx_pending = self.tx.len() > 0;
+        o.tx_pending = !self.tx.is_empty();
         o
     }
 

@@ -10,11 +10,11 @@ mod cmd;
 #[command(name = "rins", version, about)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Tool,
 }
 
 #[derive(Subcommand)]
-enum Command {
+enum Tool {
     /// Simulate a rotary IMU run and write it as a recording (rins-recording/1).
     Simulate(cmd::simulate::Args),
     /// Calibrate the gyro errors that table rotation excites, from a recording.
@@ -52,17 +52,17 @@ fn main() -> Result<()> {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     match Cli::parse().command {
-        Command::Simulate(a) => cmd::simulate::run(&a),
-        Command::Calibrate(a) => cmd::calibrate::run(&a),
-        Command::Navigate(a) => cmd::navigate::run(&a),
-        Command::Allan(a) => cmd::allan::run(&a),
-        Command::Reproduce(a) => cmd::reproduce::run(&a),
-        Command::Demo(a) => cmd::demo::run(&a),
-        Command::Record(a) => cmd::record::run(&a),
-        Command::Command(a) => cmd::command::run(&a),
-        Command::QemuReplay(a) => cmd::qemu_replay::run(&a),
-        Command::Diagnose(a) => cmd::diagnose::run(&a),
-        Command::Study(a) => cmd::study::run(&a),
-        Command::Outages(a) => cmd::outages::run(&a),
+        Tool::Simulate(a) => cmd::simulate::run(&a),
+        Tool::Calibrate(a) => cmd::calibrate::run(&a),
+        Tool::Navigate(a) => cmd::navigate::run(&a),
+        Tool::Allan(a) => cmd::allan::run(&a),
+        Tool::Reproduce(a) => cmd::reproduce::run(&a),
+        Tool::Demo(a) => cmd::demo::run(&a),
+        Tool::Record(a) => cmd::record::run(&a),
+        Tool::Command(a) => cmd::command::run(&a),
+        Tool::QemuReplay(a) => cmd::qemu_replay::run(&a),
+        Tool::Diagnose(a) => cmd::diagnose::run(&a),
+        Tool::Study(a) => cmd::study::run(&a),
+        Tool::Outages(a) => cmd::outages::run(&a),
     }
 }

@@ -8,9 +8,8 @@
 //!
 //! A moving-base recording with `gnss.csv` configures the board for aided
 //! navigation (the filter's noise model from the recording's sensor
-//! profile, as `rins navigate --gnss` takes it); each fix is valid at the
-//! IMU sample nearest its time, the sample `rins navigate --gnss` uses it
-//! at, and is sent [`FIX_LATENCY_US`] later.
+//! profile, as `rins navigate --gnss` takes it); each fix carries its own
+//! time of validity and is sent [`FIX_LATENCY_US`] later.
 
 use anyhow::{anyhow, bail, Result};
 use core_nav::table::EncoderScale;
@@ -80,21 +79,16 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
             mv.longitude_deg,
             crate::aided::aided_config(m.axis, lever, &opt),
         ));
-        // Each fix just before the first IMU sample at or after its time
-        // less half a sample period (the nearest), as `navigate --gnss`.
-        let half = 0.5 / m.imu_rate_hz;
-        let mut k = 0usize;
+        // Each fix at its own time of validity (the relay, `rins record
+        // --gnss`, sends the same times): the board applies it from the
+        // state stored nearest that time.
         for f in gnss {
-            while rec.imu.get(k).is_some_and(|r| r.t_s < f.t_s - half) {
-                k += 1;
+            if f.t_s >= 0.0 {
+                fixes.push(Event::Gnss {
+                    t_us: (f.t_s * 1e6).round() as u64,
+                    fix: f.to_fix(),
+                });
             }
-            let Some(r) = rec.imu.get(k).filter(|r| r.t_s <= f.t_s + half) else {
-                continue;
-            };
-            fixes.push(Event::Gnss {
-                t_us: (r.t_s * 1e6).round() as u64,
-                fix: f.to_fix(),
-            });
         }
     }
     let scale = EncoderScale::new(counts_per_rev);

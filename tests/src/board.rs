@@ -138,6 +138,8 @@ pub struct HostBoard {
     next_link_us: u64,
     /// Every byte the board sent.
     pub sent: Vec<u8>,
+    /// The link task's last word on the motor: off (the IMU silent).
+    pub motor_off: bool,
     seq: u16,
 }
 
@@ -172,6 +174,7 @@ impl HostBoard {
             mcu_us: now_us,
             next_link_us: now_us,
             sent: vec![],
+            motor_off: false,
             seq: 0,
         }
     }
@@ -195,10 +198,11 @@ impl HostBoard {
     pub fn link_due(&mut self) {
         while self.mcu_us >= self.next_link_us {
             self.next_link_us += 10_000;
-            let _ = self
-                .program
-                .link
-                .run(self.mcu_us, &mut self.flash, &mut self.wdg, self.stats);
+            let out =
+                self.program
+                    .link
+                    .run(self.mcu_us, &mut self.flash, &mut self.wdg, self.stats);
+            self.motor_off = out.motor_off;
             while let Some(b) = self.program.uart.next_tx() {
                 self.sent.push(b);
             }

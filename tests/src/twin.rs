@@ -25,14 +25,29 @@ pub struct TwinRun {
     pub fixes: usize,
 }
 
-/// Runs `bytes` (a replay; its trailer ignored); `latency_us` overrides
-/// the header's fix latency.
+/// How the twin runs a replay.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TwinOptions {
+    /// Send each fix this long after its time of validity, µs (`None`: the
+    /// header's).
+    pub latency_us: Option<u64>,
+    /// The board's fix horizon, µs (`None`: its tuning's).
+    pub horizon_us: Option<u64>,
+    /// Stamp each fix with its arrival, not its time of validity (what a
+    /// board without times of validity does).
+    pub stamp_at_arrival: bool,
+}
+
+/// Runs `bytes` (a replay; its trailer ignored).
 ///
 /// # Panics
 /// A malformed replay (the twin is a test tool).
-pub fn run(bytes: &[u8], latency_us: Option<u64>) -> TwinRun {
+pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
     let h = Header::decode(&bytes[..HEADER]).expect("a replay header");
-    let tuning = firmware::replay::tuning(&h, firmware::tuning::board());
+    let mut tuning = firmware::replay::tuning(&h, firmware::tuning::board());
+    if let Some(hz) = opt.horizon_us {
+        tuning.nav.fix_horizon_us = hz;
+    }
     let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
     let mut events = vec![];
     let mut at = HEADER;
@@ -48,7 +63,7 @@ pub fn run(bytes: &[u8], latency_us: Option<u64>) -> TwinRun {
         }
     }
     b.link_due();
-    let latency = latency_us.unwrap_or(u64::from(h.fix_latency_us));
+    let latency = opt.latency_us.unwrap_or(u64::from(h.fix_latency_us));
     let first_rec = events.iter().find_map(|e| match e {
         Event::Imu { t_us, .. } => Some(*t_us),
         _ => None,
@@ -86,10 +101,8 @@ pub fn run(bytes: &[u8], latency_us: Option<u64>) -> TwinRun {
                     break;
                 }
                 fixes.remove(0);
-                b.command(&Command::GnssFix {
-                    t_valid_us: tv,
-                    fix,
-                });
+                let t_valid_us = if opt.stamp_at_arrival { x.t_us } else { tv };
+                b.command(&Command::GnssFix { t_valid_us, fix });
                 sent += 1;
             }
         }

@@ -1,44 +1,114 @@
-//! The firmware logic in closed loop with hal-sim on the host: the real
-//! ICM-42688-P driver on the chip model, the encoder counter, the motor
-//! through PWM and direction pins, 100 Hz IMU / 50 Hz encoder scheduling.
+//! The board's program (`firmware::tasks`, the tasks the RTIC app runs)
+//! in closed loop with hal-sim on the host: the real ICM-42688-P driver on
+//! the chip model behind its data-ready line, the encoder counter, the
+//! motor through PWM and direction pins, commands and telemetry byte by
+//! byte through the UART's queues, the configuration in the flash journal.
 
-use core_nav::scheme::Scheme;
 use core_nav::strapdown::Strapdown;
 use core_nav::table::QuadratureCounter;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
-use firmware::app::{App, AppConfig, Mode};
 use firmware::faults::Fault;
-use firmware::icm42688::{Config, Icm42688, Sample};
+use firmware::icm42688::{Config, Icm42688, RawSample, Sample};
+use firmware::navigation::Mode;
+use firmware::record::Journal;
+use firmware::tasks::{Encoder, Imu, Motor, Tuning};
 use hal_sim::bench::{Bench, BenchConfig, SharedBench};
 use hal_sim::drivers::{SimDelay, SimDir, SimEncoder, SimPwm, SimSpi};
 use hal_sim::imu::ImuSpec;
+use protocol::record::BoardConfig;
+use protocol::{CalStatus, Command, SchemeKind, Status, Telemetry};
+use rins_tests::board::{HostBoard, NorFlash, JOURNAL};
+
+/// The motor's pins.
+struct Pins {
+    pwm: SimPwm,
+    dir: SimDir,
+}
+impl Motor for Pins {
+    fn set(&mut self, duty: f32) {
+        let max = self.pwm.max_duty_cycle();
+        self.pwm
+            .set_duty_cycle((duty.abs().min(1.0) * f32::from(max)) as u16)
+            .unwrap();
+        if duty >= 0.0 {
+            self.dir.set_high().unwrap()
+        } else {
+            self.dir.set_low().unwrap()
+        }
+    }
+}
+
+struct Counter(SimEncoder);
+impl Encoder for Counter {
+    fn count(&mut self) -> u16 {
+        self.0.read_count().unwrap()
+    }
+}
+
+/// The IMU read on every edge whatever its data-ready says (a board that
+/// polls on a timer).
+struct Polled<'a>(&'a mut Icm42688<SimSpi>);
+impl Imu for Polled<'_> {
+    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, firmware::tasks::BusError> {
+        self.0
+            .read_si()
+            .map(Some)
+            .map_err(|_| firmware::tasks::BusError)
+    }
+}
+
+/// The board's configuration as the tests set it (the bench's site).
+fn config(rate_dps: f32) -> BoardConfig {
+    BoardConfig {
+        lat_e7: 305_300_000,
+        height_mm: 20_000,
+        base_deg: [0.0; 3],
+        scheme: SchemeKind::Continuous,
+        rate_dps,
+        count: 0,
+        aided: false,
+        lon_e7: 0,
+    }
+}
+
+/// A flash holding `cfg` (and `cal`), as a previous power-up left it.
+fn flash_with(cfg: BoardConfig, cal: Option<protocol::record::StoredCalibration>) -> NorFlash {
+    let mut f = NorFlash::new(4096);
+    let mut j = Journal::open(&mut f, JOURNAL).unwrap();
+    j.write(cfg, cal).unwrap();
+    while j.step(&mut f).unwrap() {}
+    f
+}
+
+/// The tuning with the calibration's durations.
+fn tuning(static_s: f64, rotate_s: f64) -> Tuning {
+    let mut t = firmware::tuning::board();
+    t.nav.cal.static_s = static_s;
+    t.nav.cal.rotate_s = rotate_s;
+    t
+}
 
 struct Board {
     bench: SharedBench,
     imu: Icm42688<SimSpi>,
-    pwm: SimPwm,
-    dir: SimDir,
-    enc: SimEncoder,
-    app: App,
+    pins: Pins,
+    enc: Counter,
+    b: HostBoard,
     t_us: u64,
-    frames: Vec<u8>,
-    /// (t, true rate, reference rate) while the scheme runs, rad/s.
+    /// (t, true rate) every 10 ms, rad/s.
     rates: Vec<(u64, f64)>,
-    /// What the app consumed: (t, sample).
+    /// The navigation inputs (t, mean) while navigating.
     consumed: Vec<(u64, Sample)>,
     nav_start: Option<(usize, Strapdown<f32>)>,
     read_imu: bool,
-    /// Read the IMU on the 1 kHz timer whether or not data-ready is set.
     ignore_drdy: bool,
-    /// Every navigation-rate sample the board formed: (t, mean).
+    /// Every navigation input: (t, mean).
     nav_samples: Vec<(u64, Sample)>,
-    /// Every encoder read: (t, hardware count).
-    encoder_reads: Vec<(u64, u16)>,
 }
 
 impl Board {
-    fn new(spec: ImuSpec, cfg: AppConfig, seed: u64) -> Self {
+    fn new(spec: ImuSpec, t: Tuning, flash: NorFlash, seed: u64) -> Self {
         let mut bc = BenchConfig::new(spec);
         bc.seed = seed;
         let bench = Bench::new(bc).shared();
@@ -47,86 +117,96 @@ impl Board {
             .expect("IMU init");
         let t_us = bench.borrow().now_ns / 1000;
         Self {
-            pwm: SimPwm(bench.clone()),
-            dir: SimDir(bench.clone()),
-            enc: SimEncoder(bench.clone()),
+            pins: Pins {
+                pwm: SimPwm(bench.clone()),
+                dir: SimDir(bench.clone()),
+            },
+            enc: Counter(SimEncoder(bench.clone())),
             bench,
             imu,
-            app: App::new(cfg).expect("config"),
-            t_us: t_us.div_ceil(10_000) * 10_000,
-            frames: vec![],
+            b: HostBoard::new(t, flash, t_us, Ok(())),
+            t_us,
             rates: vec![],
             consumed: vec![],
             nav_start: None,
             read_imu: true,
             ignore_drdy: false,
             nav_samples: vec![],
-            encoder_reads: vec![],
         }
+    }
+
+    fn mode(&self) -> Mode {
+        self.b.program.nav.nav.mode()
+    }
+
+    fn duty(&self) -> f32 {
+        self.b.program.tick.control.duty()
+    }
+
+    fn fault_count(&self, f: Fault) -> u32 {
+        self.b.program.tick.control.faults.get(f) + self.b.program.nav.nav.faults.get(f)
     }
 
     fn run(&mut self, seconds: f64) {
         let end = self.t_us + (seconds * 1e6) as u64;
         while self.t_us < end {
-            // The scheduler's 1 kHz tick (the IMU's ODR).
+            // The IMU's ODR: a data-ready edge every 1 ms.
             self.t_us += 1_000;
             let t = self.t_us;
             self.bench.borrow_mut().advance_to(t * 1000);
-            if t.is_multiple_of(20_000) {
-                let hw = self.enc.read_count().unwrap();
-                self.app.on_encoder(t, hw);
-                self.encoder_reads.push((t, hw));
-            }
+            let before = self.b.program.nav.nav.last_input().map(|x| x.t_us);
+            let was_nav = self.mode() == Mode::Navigating;
             if self.read_imu {
-                let ready = if self.ignore_drdy {
-                    self.imu.data_ready().map(|_| true)
+                if self.ignore_drdy {
+                    let mut imu = Polled(&mut self.imu);
+                    self.b.edge(t, &mut imu, &mut self.enc, &mut self.pins);
                 } else {
-                    self.imu.data_ready()
-                };
-                match ready {
-                    Ok(true) => match self.imu.read_si() {
-                        Ok((raw, s)) => {
-                            let was_nav = self.app.mode == Mode::Navigating;
-                            self.app.on_imu(t, &raw, &s);
-                            if t.is_multiple_of(10_000) {
-                                self.nav_samples.push(self.app.last_nav_sample().unwrap());
-                            }
-                            if self.app.mode == Mode::Navigating && t.is_multiple_of(10_000) {
-                                if !was_nav {
-                                    self.nav_start = Some((
-                                        self.consumed.len(),
-                                        self.app.nav().unwrap().clone(),
-                                    ));
-                                }
-                                self.consumed.push(self.app.last_nav_sample().unwrap());
-                            }
-                        }
-                        Err(_) => self.app.on_imu_error(t),
-                    },
-                    Ok(false) => {}
-                    Err(_) => self.app.on_imu_error(t),
+                    self.b.edge(t, &mut self.imu, &mut self.enc, &mut self.pins);
                 }
-            }
-            if t.is_multiple_of(100_000) {
-                self.app.check_watchdog(t);
-            }
-            let d = self.app.duty();
-            let max = self.pwm.max_duty_cycle();
-            self.pwm
-                .set_duty_cycle((d.abs() * f32::from(max)) as u16)
-                .unwrap();
-            if d >= 0.0 {
-                self.dir.set_high().unwrap()
             } else {
-                self.dir.set_low().unwrap()
+                self.b.mcu_us = t;
+                self.b.link_due();
+            }
+            // The link task turns the motor off when the IMU is silent (the
+            // board's wiring does it under the motor's lock).
+            if self.b.motor_off {
+                self.pins.set(0.0);
+            }
+            let nav = &self.b.program.nav.nav;
+            if let Some(x) = nav.last_input().filter(|x| Some(x.t_us) != before) {
+                self.nav_samples.push((x.t_us, x.mean));
+                if nav.mode() == Mode::Navigating {
+                    if !was_nav {
+                        self.nav_start = Some((self.consumed.len(), nav.nav().unwrap().clone()));
+                    }
+                    self.consumed.push((x.t_us, x.mean));
+                }
             }
             if t.is_multiple_of(10_000) {
                 let r = self.bench.borrow().table.kin.rate;
                 self.rates.push((t, r));
             }
-            let frames = &mut self.frames;
-            self.app.drain(|f| frames.extend_from_slice(f));
         }
+    }
+
+    /// A command, byte by byte through the UART's receive queue.
+    fn command(&mut self, c: &Command) {
+        self.b.command(c);
+    }
+
+    /// The telemetry the board sent, decoded.
+    fn telemetry(&self) -> Vec<Telemetry> {
+        let mut d = protocol::Decoder::default();
+        let mut out = [0u8; protocol::MAX_PAYLOAD + 2];
+        let mut v = vec![];
+        for x in &self.b.sent {
+            if let Some(n) = d.push(*x, &mut out) {
+                if let Ok((_, t)) = Telemetry::decode(&out[..n]) {
+                    v.push(t);
+                }
+            }
+        }
+        v
     }
 }
 
@@ -143,24 +223,34 @@ fn rms_rate_error(b: &Board, from_s: f64, to_s: f64, want: f64) -> f64 {
 #[test]
 fn ten_minutes_from_power_up_calibrate_then_navigate() {
     let rate = 30f64.to_radians();
-    let cfg = AppConfig {
-        scheme: Scheme::Continuous { rate },
-        ..AppConfig::default()
-    };
-    let mut b = Board::new(ImuSpec::icm42688(), cfg, 3);
-    b.run(600.0);
-    assert_eq!(b.app.mode, Mode::Navigating, "faults {:?}", b.app.faults);
-    let cal = b.app.calibration.expect("calibrated");
-    let stored = b.app.stored.expect("stored");
-    assert_eq!(
-        firmware::app::decode_record(&stored, core_nav::table::Axis::Z)
-            .map(|c| c.bias.map(|x| x as f32)),
-        Some(cal.bias.map(|x| x as f32))
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(60.0, 60.0),
+        flash_with(config(30.0), None),
+        3,
     );
+    b.run(600.0);
+    assert_eq!(
+        b.mode(),
+        Mode::Navigating,
+        "faults {:?}",
+        b.b.program.nav.nav.faults
+    );
+    let cal = b.b.program.nav.nav.calibration.expect("calibrated");
+    // Stored in the journal (the link task programs it a word at a time).
+    let stored =
+        b.b.program
+            .link
+            .journal
+            .current
+            .and_then(|r| r.calibration)
+            .expect("stored");
+    let b32 = cal.bias.map(|x| x as f32);
+    assert_eq!(stored.bias_radps, [b32.x, b32.y, b32.z]);
     // The rate loop holds the rate during navigation (after settling).
-    let (ns, _) = b.nav_start.as_ref().map(|(i, _)| (*i, 0)).unwrap();
+    let ns = b.nav_start.as_ref().map(|(i, _)| *i).unwrap();
     let t_nav = b.consumed[ns].0 as f64 * 1e-6;
-    let rms = rms_rate_error(&b, t_nav, 600.0, rate);
+    let rms = rms_rate_error(&b, t_nav, b.t_us as f64 * 1e-6, rate);
     println!(
         "calibrated and navigating from {t_nav:.1} s; rate error RMS {:.3} deg/s",
         rms.to_degrees()
@@ -169,42 +259,49 @@ fn ten_minutes_from_power_up_calibrate_then_navigate() {
     // Results equal core-nav's offline processing of the same samples (f32,
     // bit for bit): replay from the state the board started navigating with.
     let (i0, mut offline) = b.nav_start.take().unwrap();
+    let nav = &b.b.program.nav.nav;
     for (t, s) in &b.consumed[i0 + 1..] {
-        offline.step(&b.app.imu_sample(*t, s)).unwrap();
+        offline.step(&nav.imu_sample(*t, s)).unwrap();
     }
-    let board = b.app.nav().unwrap().state();
+    let board = nav.nav().unwrap().state();
     assert_eq!(
         offline.state(),
         board,
         "offline replay differs from the board"
     );
     let h = (board.p_n.x.powi(2) + board.p_n.y.powi(2)).sqrt();
-    println!(
-        "board after {:.0} s of navigation: horizontal {:.1} m",
-        600.0 - t_nav,
-        h
+    println!("board after navigating: horizontal {h:.1} m");
+    assert_eq!(
+        b.b.stats
+            .out_lost
+            .load(std::sync::atomic::Ordering::Relaxed),
+        0
     );
-    assert_eq!(b.app.faults.get(Fault::TelemetryOverflow), 0);
+    assert_eq!(b.b.program.link.link.tx_dropped, 0);
+    // Every data-ready edge ticked; none dropped.
+    assert_eq!(
+        b.b.stats.dropped.load(std::sync::atomic::Ordering::Relaxed),
+        0
+    );
 }
 
 #[test]
 fn rate_loop_holds_10_to_100_dps() {
-    for dps in [10.0, 40.0, 70.0, 100.0] {
-        let rate = f64::to_radians(dps);
+    for dps in [10.0f32, 40.0, 70.0, 100.0] {
+        let rate = f64::from(dps).to_radians();
         // The rotating phase must hold a whole turn (36 s at 10 deg/s).
-        let cfg = AppConfig {
-            scheme: Scheme::Continuous { rate },
-            static_s: 5.0,
-            rotate_s: 40.0,
-            ..AppConfig::default()
-        };
-        let mut b = Board::new(ImuSpec::icm42688(), cfg, 5);
+        let mut b = Board::new(
+            ImuSpec::icm42688(),
+            tuning(5.0, 40.0),
+            flash_with(config(dps), None),
+            5,
+        );
         b.run(40.0);
         let t0 = b.rates.first().unwrap().0 as f64 * 1e-6;
         let rms = rms_rate_error(&b, t0 + 15.0, t0 + 40.0, rate);
         println!(
             "{dps} deg/s: mode {:?}, rate error RMS {:.3} deg/s",
-            b.app.mode,
+            b.mode(),
             rms.to_degrees()
         );
         assert!(rms.to_degrees() < 0.5, "{dps}: {}", rms.to_degrees());
@@ -213,26 +310,19 @@ fn rate_loop_holds_10_to_100_dps() {
 
 /// A board through calibration and into navigation quickly (5 s still, 15 s
 /// rotating at 90 deg/s).
-/// A short power-up: 5 s still, 15 s at 90 deg/s.
-fn quick_calibration() -> AppConfig {
-    AppConfig {
-        scheme: Scheme::Continuous {
-            rate: 90f64.to_radians(),
-        },
-        static_s: 5.0,
-        rotate_s: 15.0,
-        ..AppConfig::default()
-    }
-}
-
 fn navigating_board(seed: u64) -> Board {
-    let mut b = Board::new(ImuSpec::icm42688(), quick_calibration(), seed);
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(5.0, 15.0),
+        flash_with(config(90.0), None),
+        seed,
+    );
     b.run(25.0);
     assert_eq!(
-        b.app.mode,
+        b.mode(),
         Mode::Navigating,
-        "refused: {:?}",
-        b.app.last_refusal
+        "faults {:?}",
+        b.b.program.nav.nav.faults
     );
     b
 }
@@ -245,54 +335,89 @@ fn spi_errors_are_counted_and_navigation_continues() {
     b.bench.borrow_mut().chip.faults.spi_error = false;
     b.run(1.0);
     assert!(
-        b.app.faults.get(Fault::SpiError) >= 40,
+        b.fault_count(Fault::SpiError) >= 40,
         "{}",
-        b.app.faults.get(Fault::SpiError)
+        b.fault_count(Fault::SpiError)
     );
-    assert_eq!(b.app.mode, Mode::Navigating);
+    assert_eq!(b.mode(), Mode::Navigating);
 }
 
 #[test]
 fn stuck_imu_stops_the_motor() {
-    // A hung chip stops raising data-ready: the watchdog catches it.
+    // A hung chip stops raising data-ready: the link task's supervision
+    // catches the silence.
     let mut b = navigating_board(12);
     b.bench.borrow_mut().chip.faults.stuck = true;
     b.run(0.5);
-    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuTimeout));
-    assert_eq!(b.app.duty(), 0.0);
+    // Each edge had no new data behind it (counted), the samples stopped,
+    // and the link task stopped the motor (the bench's motor sees 0).
+    let dup =
+        b.b.stats
+            .duplicated
+            .load(std::sync::atomic::Ordering::Relaxed);
+    assert!(dup >= 450, "{dup}");
+    assert!(b.b.motor_off);
+    assert_eq!(b.bench.borrow().pwm_duty, 0);
+    assert!(b.telemetry().iter().any(|t| matches!(
+        t,
+        Telemetry::Fault {
+            fault: Fault::ImuTimeout,
+            ..
+        }
+    )));
     // A board reading on its timer sees the frozen values themselves.
     let mut b = navigating_board(12);
     b.ignore_drdy = true;
     b.bench.borrow_mut().chip.faults.stuck = true;
     b.run(0.5);
-    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuStuck));
-    assert_eq!(b.app.duty(), 0.0);
+    assert_eq!(b.mode(), Mode::Stopped(Fault::ImuStuck));
+    assert_eq!(b.duty(), 0.0);
 }
 
 #[test]
-fn saturated_samples_are_skipped_and_counted() {
+fn saturated_samples_are_skipped_counted_and_the_motor_held_safe() {
     let mut b = navigating_board(13);
     b.bench.borrow_mut().chip.faults.saturated = true;
     b.run(0.1);
+    assert_eq!(
+        b.duty(),
+        0.0,
+        "a saturated sample: the motor to a safe duty"
+    );
     b.bench.borrow_mut().chip.faults.saturated = false;
     b.run(0.5);
-    assert!(b.app.faults.get(Fault::ImuSaturated) >= 90);
-    assert_eq!(b.app.mode, Mode::Navigating);
+    assert!(b.fault_count(Fault::ImuSaturated) >= 90);
+    assert_eq!(b.mode(), Mode::Navigating);
+    // Reported when it began and then at most once a second, with its count.
+    let reports = b
+        .telemetry()
+        .iter()
+        .filter(|t| {
+            matches!(
+                t,
+                Telemetry::Fault {
+                    fault: Fault::ImuSaturated,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(reports, 1);
 }
 
 #[test]
 fn encoder_glitch_is_dropped_and_counted() {
     let mut b = navigating_board(14);
-    let p0 = b.app.nav().unwrap().state().p_n;
+    let p0 = b.b.program.nav.nav.nav().unwrap().state().p_n;
     b.bench.borrow_mut().faults.encoder_offset_counts = 3_000;
     b.run(0.03);
     b.bench.borrow_mut().faults.encoder_offset_counts = 0;
     b.run(2.0);
     // One or two reads fall in the 30 ms (50 Hz reads).
-    assert!((1..=2).contains(&b.app.faults.get(Fault::EncoderGlitch)));
-    assert_eq!(b.app.mode, Mode::Navigating);
+    assert!((1..=2).contains(&b.fault_count(Fault::EncoderGlitch)));
+    assert_eq!(b.mode(), Mode::Navigating);
     // The navigation (sensor frame) does not see the encoder at all.
-    assert!((b.app.nav().unwrap().state().p_n - p0).norm() < 5.0);
+    assert!((b.b.program.nav.nav.nav().unwrap().state().p_n - p0).norm() < 5.0);
 }
 
 #[test]
@@ -300,30 +425,45 @@ fn motor_stall_stops_the_motor() {
     let mut b = navigating_board(15);
     b.bench.borrow_mut().faults.motor_stall = true;
     b.run(3.0);
-    assert_eq!(b.app.mode, Mode::Stopped(Fault::MotorStall));
-    assert_eq!(b.app.duty(), 0.0);
+    assert_eq!(b.mode(), Mode::Stopped(Fault::MotorStall));
+    assert_eq!(b.duty(), 0.0);
 }
 
 #[test]
-fn imu_silence_trips_the_watchdog() {
+fn imu_silence_stops_the_motor_and_the_watchdog_starves() {
     let mut b = navigating_board(16);
+    let feeds = b.b.wdg.feeds;
     b.read_imu = false;
     b.run(0.3);
-    assert_eq!(b.app.mode, Mode::Stopped(Fault::ImuTimeout));
-    assert_eq!(b.app.duty(), 0.0);
+    // The link task saw the silence: the motor off, the fault reported.
+    assert!(b.telemetry().iter().any(|t| matches!(
+        t,
+        Telemetry::Fault {
+            fault: Fault::ImuTimeout,
+            ..
+        }
+    )));
+    assert!(b.b.motor_off);
+    assert_eq!(b.bench.borrow().pwm_duty, 0);
+    let fed = b.b.wdg.feeds - feeds;
+    // Fed while the tick ran (the first 10 ms at most), then never: on the
+    // board the IWDG resets the chip 100 ms into the silence.
+    assert!(fed <= 2, "fed {fed} times");
+    // When samples come back the tick halts the scheme and navigation stops.
+    b.read_imu = true;
+    b.run(0.05);
+    assert_eq!(b.mode(), Mode::Stopped(Fault::ImuTimeout));
+    assert_eq!(b.duty(), 0.0);
 }
 
 #[test]
 fn a_bump_restarts_the_calibration_which_then_succeeds() {
-    let cfg = AppConfig {
-        scheme: Scheme::Continuous {
-            rate: 90f64.to_radians(),
-        },
-        static_s: 10.0,
-        rotate_s: 15.0,
-        ..AppConfig::default()
-    };
-    let mut b = Board::new(ImuSpec::icm42688(), cfg, 17);
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(10.0, 15.0),
+        flash_with(config(90.0), None),
+        17,
+    );
     let t0 = b.t_us as f64 * 1e-6;
     b.bench.borrow_mut().bump(hal_sim::world::Bump {
         t_s: t0 + 4.0,
@@ -332,85 +472,128 @@ fn a_bump_restarts_the_calibration_which_then_succeeds() {
         accel_b: nalgebra::Vector3::zeros(),
     });
     b.run(50.0);
-    assert_eq!(b.app.faults.get(Fault::CalibrationRefused), 1);
-    assert!(
-        matches!(
-            b.app.last_refusal,
-            Some(core_nav::calib::CalibError::NotStatic { .. })
-        ),
-        "{:?}",
-        b.app.last_refusal
-    );
-    assert_eq!(b.app.mode, Mode::Navigating);
+    assert_eq!(b.fault_count(Fault::CalibrationRefused), 1);
+    let refusals: Vec<CalStatus> = b
+        .telemetry()
+        .iter()
+        .filter_map(|t| match t {
+            Telemetry::Calibration { status, .. } if *status != CalStatus::Accepted => {
+                Some(*status)
+            }
+            _ => None,
+        })
+        .collect();
+    assert_eq!(refusals, vec![CalStatus::NotStatic]);
+    assert_eq!(b.mode(), Mode::Navigating);
 }
 
 #[test]
 fn a_table_that_cannot_reach_its_rate_is_refused() {
-    let cfg = AppConfig {
-        scheme: Scheme::Continuous {
-            rate: 90f64.to_radians(),
-        },
-        static_s: 5.0,
-        rotate_s: 15.0,
-        ..AppConfig::default()
-    };
-    let mut b = Board::new(ImuSpec::icm42688(), cfg, 18);
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(5.0, 15.0),
+        flash_with(config(90.0), None),
+        18,
+    );
     // A dragging bearing: 0.5 N m s/rad of viscous friction against the
     // motor's 0.4 N m stall torque: 46 deg/s at most.
     b.bench.borrow_mut().table.motor.viscous = 0.5;
     b.run(20.0);
-    assert!(
-        matches!(
-            b.app.last_refusal,
-            Some(core_nav::calib::CalibError::RateNotReached { .. })
-        ),
-        "{:?}",
-        b.app.last_refusal
-    );
-    assert!(matches!(
-        b.app.mode,
-        Mode::CalStatic(_) | Mode::CalSpinUp(_)
-    ));
+    assert!(b.telemetry().iter().any(|t| matches!(
+        t,
+        Telemetry::Calibration {
+            status: CalStatus::RateNotReached,
+            ..
+        }
+    )));
+    assert!(matches!(b.mode(), Mode::CalStatic(_) | Mode::CalSpinUp(_)));
 }
 
 #[test]
-fn malformed_commands_are_answered_with_a_reason() {
-    use firmware::telemetry::{frame, reason, Command, Decoder, Telemetry, MAX_FRAME, MAX_PAYLOAD};
+fn commands_arrive_byte_by_byte_and_are_answered_with_a_reason() {
     let mut b = navigating_board(19);
-    let send = |b: &mut Board, c: Command, seq: u16| {
-        let mut p = [0u8; MAX_PAYLOAD];
-        let n = c.payload(seq, &mut p).unwrap();
-        let mut f = [0u8; MAX_FRAME];
-        let m = frame(&p[..n], &mut f).unwrap();
-        let t = b.t_us;
-        b.app.on_rx(t, &f[..m]);
+    b.b.sent.clear();
+    let frame = |c: Command, seq: u16| {
+        let mut f = [0u8; protocol::MAX_FRAME];
+        let n = c.to_frame(seq, &mut f).unwrap();
+        f[..n].to_vec()
     };
-    b.frames.clear();
-    send(
-        &mut b,
+    // Two commands and a garbage frame, delivered one byte per 11 µs as
+    // the UART would (the receive interrupt's queue; the link task every
+    // 10 ms).
+    let mut bytes = frame(
         Command::SetScheme {
-            kind: 1,
+            kind: SchemeKind::Continuous,
             rate_dps: 900.0,
             count: 0,
         },
         7,
     );
-    send(&mut b, Command::Stop, 8);
-    b.app.on_rx(b.t_us, &[0x11, 0x22, 0x00]); // garbage frame
-    b.run(0.05);
-    let mut d = Decoder::default();
-    let mut out = [0u8; MAX_PAYLOAD + 2];
-    let mut acks: Vec<(u16, u8)> = vec![];
-    for x in &b.frames {
-        if let Some(n) = d.push(*x, &mut out) {
-            if let Ok((_, Telemetry::Ack { seq, status })) = Telemetry::parse(&out[..n]) {
-                acks.push((seq, status));
-            }
-        }
+    bytes.extend(frame(Command::Stop {}, 8));
+    bytes.extend([0x11, 0x22, 0x00]);
+    for chunk in bytes.chunks(3) {
+        b.b.receive(chunk);
+        b.run(0.001);
     }
-    assert_eq!(acks, vec![(7, reason::BAD_RATE), (8, 0)]);
-    assert_eq!(b.app.duty(), 0.0, "stopped on command");
-    assert_eq!(b.app.faults.get(Fault::BadCommand), 1);
+    b.run(0.05);
+    let acks: Vec<(u16, Status)> = b
+        .telemetry()
+        .iter()
+        .filter_map(|t| match t {
+            Telemetry::Ack { seq, status } => Some((*seq, *status)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(acks, vec![(7, Status::BadRate), (8, Status::Accepted)]);
+    assert_eq!(b.duty(), 0.0, "stopped on command");
+    assert_eq!(b.b.program.link.link.rx_stats().corrupt, 1);
+}
+
+#[test]
+fn the_configuration_is_set_by_commands_and_survives_a_power_cycle() {
+    // A board at a southern site: site, base and scheme by command, stored.
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(5.0, 15.0),
+        NorFlash::new(4096),
+        20,
+    );
+    for c in [
+        Command::SetSite {
+            lat_e7: -339_250_000,
+            height_mm: 31_000,
+        },
+        Command::SetBase {
+            roll_deg: 0.0,
+            pitch_deg: 0.0,
+            heading_deg: -120.0,
+        },
+        Command::SetScheme {
+            kind: SchemeKind::Continuous,
+            rate_dps: 60.0,
+            count: 0,
+        },
+    ] {
+        b.command(&c);
+    }
+    b.run(1.0);
+    let cfg = b.b.program.link.link.config;
+    assert_eq!(
+        (cfg.lat_e7, cfg.base_deg[2], cfg.rate_dps),
+        (-339_250_000, -120.0, 60.0)
+    );
+    assert_eq!(b.b.program.nav.nav.config().lat_deg, -33.925);
+    assert!(b.telemetry().iter().any(|t| matches!(
+        t,
+        Telemetry::Config {
+            lat_e7: -339_250_000,
+            ..
+        }
+    )));
+    // Power off, on again with the same flash: the record is the config.
+    let flash = b.b.flash.clone();
+    let b2 = Board::new(ImuSpec::icm42688(), tuning(5.0, 15.0), flash, 21);
+    assert_eq!(b2.b.program.link.link.config, cfg);
 }
 
 #[test]
@@ -418,7 +601,7 @@ fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
     let mut b = navigating_board(21);
     b.run(5.0);
     let meta = recording::Meta::default();
-    let d = rins::record::decode(b.frames.iter().copied(), meta.clone());
+    let d = rins::record::decode(b.b.sent.iter().copied(), meta.clone());
     println!("{}", rins::record::link_report(&d));
     assert_eq!(
         (
@@ -436,16 +619,16 @@ fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
         assert_eq!(row.gyro_radps, s.gyro_radps.map(f64::from));
         assert_eq!(row.accel_mps2, s.accel_mps2.map(f64::from));
     }
-    assert_eq!(d.recording.table.len(), b.encoder_reads.len());
     assert_eq!(d.recording.meta.imu_sample, recording::SampleKind::Average);
     assert_eq!(d.calibrations.len(), 1);
+    assert!(!d.health.is_empty(), "health frames once a second");
     // Through the file format and back.
     let dir = std::env::temp_dir().join(format!("rins-record-{}", std::process::id()));
     d.recording.write(&dir).unwrap();
     assert_eq!(recording::Recording::read(&dir).unwrap(), d.recording);
     std::fs::remove_dir_all(&dir).unwrap();
     // A damaged link: 5 bytes flipped, 2,000 bytes gone (about 50 frames).
-    let mut bytes = b.frames.clone();
+    let mut bytes = b.b.sent.clone();
     for k in 0..5 {
         let i = 1_000 + k * 7_919;
         bytes[i] ^= 0x10;
@@ -461,56 +644,62 @@ fn telemetry_decodes_back_to_the_samples_exactly_and_counts_losses() {
 #[test]
 fn the_stored_record_is_read_at_power_up_and_the_change_reported() {
     use core_nav::table::Axis;
-    use firmware::app::{decode_record, CAL_RECORD, CAL_STATUS_STORED};
-    // First power-up: calibrate and store.
-    let first = navigating_board(31);
-    let record = first.app.stored.expect("stored");
-    let cal1 = decode_record(&record, Axis::Z).unwrap();
+    // First power-up: calibrate and store (the journal, a word a run).
+    let mut first = navigating_board(31);
+    first.run(1.0);
+    let flash = first.b.flash.clone();
+    let cal1 = first
+        .b
+        .program
+        .link
+        .journal
+        .current
+        .and_then(|r| r.calibration)
+        .unwrap();
     // Second power-up of the same sensor (a new bench seed: the turn-on
     // bias has changed, as between real power-ups), the record read back
-    // from flash before the calibration starts.
-    let mut b = Board::new(ImuSpec::icm42688(), quick_calibration(), 32);
-    assert!(b.app.restore(&record));
-    assert_eq!(b.app.previous.map(|c| c.bias), Some(cal1.bias));
+    // from flash at boot.
+    let mut b = Board::new(ImuSpec::icm42688(), tuning(5.0, 15.0), flash, 32);
+    let prev = b.b.program.nav.nav.previous.unwrap();
+    let p32 = prev.bias.map(|x| x as f32);
+    assert_eq!([p32.x, p32.y, p32.z], cal1.bias_radps);
     b.run(25.0);
-    assert_eq!(b.app.mode, Mode::Navigating);
-    let cal2 = b.app.calibration.expect("calibrated again");
-    let (d_bias, d_mk) = b.app.change.expect("change reported");
-    // The change is the new calibration minus the stored record, exactly
-    // (both in f64; the record holds f32).
-    assert_eq!(d_bias, cal2.bias - cal1.bias);
-    assert_eq!(d_mk, cal2.m_k - cal1.m_k);
-    // What the host decodes from the link: the stored record first, then
-    // the accepted result and its change; calibration.json carries all three
-    // and reads back as a calibration.
-    let d = rins::record::decode(b.frames.iter().copied(), recording::Meta::default());
+    assert_eq!(b.mode(), Mode::Navigating);
+    let cal2 = b.b.program.nav.nav.calibration.expect("calibrated again");
+    let d = rins::record::decode(b.b.sent.iter().copied(), recording::Meta::default());
     assert_eq!(
         d.calibrations.first().map(|c| c.status),
-        Some(CAL_STATUS_STORED)
+        Some(CalStatus::Stored)
     );
-    assert_eq!(d.calibrations.last().map(|c| c.status), Some(0));
+    assert_eq!(
+        d.calibrations.last().map(|c| c.status),
+        Some(CalStatus::Accepted)
+    );
     assert_eq!(d.calibration_changes.len(), 1);
+    let want = cal2.bias - prev.bias;
     assert_eq!(
         d.calibration_changes[0].0,
-        [d_bias.x as f32, d_bias.y as f32, d_bias.z as f32]
+        [want.x as f32, want.y as f32, want.z as f32]
     );
     let j = rins::record::calibration_json(&d, Axis::Z).unwrap();
     let back = rins::calibrate::from_json(&j).unwrap();
     assert_eq!(back.bias.map(|x| x as f32), cal2.bias.map(|x| x as f32));
     assert!(j["board"]["change_from_stored"]["bias_radps"].is_array());
-    // Blank flash (erased: 0xFF) or a damaged record: nothing is kept.
-    let mut fresh = Board::new(ImuSpec::icm42688(), AppConfig::default(), 33);
-    assert!(!fresh.app.restore(&[0xFF; CAL_RECORD]));
-    let mut bad = record;
-    bad[5] ^= 1;
-    assert!(!fresh.app.restore(&bad));
-    assert!(fresh.app.previous.is_none());
+    // Blank flash: nothing kept, the factory configuration.
+    let fresh = Board::new(
+        ImuSpec::icm42688(),
+        tuning(5.0, 15.0),
+        NorFlash::new(4096),
+        33,
+    );
+    assert!(fresh.b.program.nav.nav.previous.is_none());
+    assert_eq!(fresh.b.program.link.link.config, firmware::tasks::FACTORY);
 }
 
 #[test]
 fn a_wrong_imu_at_power_up_is_reported_and_the_motor_never_runs() {
     // The board's init: WHO_AM_I is not the ICM-42688-P's (the chip model
-    // answers 0x12), so the driver refuses it and the app is told.
+    // answers 0x12), so the driver refuses it and the board boots stopped.
     let mut bc = BenchConfig::new(ImuSpec::icm42688());
     bc.seed = 5;
     let bench = Bench::new(bc).shared();
@@ -521,17 +710,18 @@ fn a_wrong_imu_at_power_up_is_reported_and_the_motor_never_runs() {
         err,
         Err(firmware::icm42688::Error::WrongDevice(0x12))
     ));
-    let mut app = App::new(AppConfig::default()).unwrap();
-    app.on_imu_init_failed(0, true);
-    assert_eq!(app.mode, Mode::Stopped(Fault::WrongDevice));
-    assert_eq!(app.faults.get(Fault::WrongDevice), 1);
-    assert_eq!(app.duty(), 0.0);
-    // Sent over the link.
-    let mut frames = vec![];
-    app.drain(|f| frames.extend_from_slice(f));
-    let d = rins::record::decode(frames, recording::Meta::default());
-    assert_eq!(d.faults, vec![(0, Fault::WrongDevice as u8, 1)]);
-    // Encoder reads and commands to start do not run the motor: no IMU.
-    app.on_encoder(20_000, 0);
-    assert_eq!(app.duty(), 0.0);
+    let mut b = HostBoard::new(
+        tuning(5.0, 15.0),
+        NorFlash::new(4096),
+        0,
+        Err(Fault::WrongDevice),
+    );
+    assert_eq!(b.program.nav.nav.mode(), Mode::Stopped(Fault::WrongDevice));
+    // A stopped board that reports and stays up: the link runs, the
+    // watchdog is fed on the link's progress alone (no reboot loop).
+    b.idle(500_000);
+    assert!(b.wdg.feeds >= 40, "{}", b.wdg.feeds);
+    let d = rins::record::decode(b.sent.clone(), recording::Meta::default());
+    assert_eq!(d.faults.first().map(|f| f.1), Some(Fault::WrongDevice));
+    assert_eq!(b.program.tick.control.duty(), 0.0);
 }

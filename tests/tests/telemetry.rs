@@ -1,18 +1,19 @@
-//! Telemetry framing: CRC check value, COBS round trips, every frame type,
-//! corruption, loss and overflow counted, commands bounds-checked.
+//! The protocol crate: CRC check value, COBS round trips, every frame
+//! type, corruption, loss and overflow counted, commands bounds-checked,
+//! typed codes refusing unknown values, the flash record.
 
 use core_nav::aided::GnssFix;
-use firmware::telemetry::{
-    cobs_decode, cobs_encode, crc16, frame, reason, Command, Decoder, FrameError, Telemetry,
+use proptest::prelude::*;
+use protocol::frame::{cobs_decode, cobs_encode, crc16};
+use protocol::record::{BoardConfig, Record, StoredCalibration, RECORD_LEN};
+use protocol::{
+    CalStatus, Command, Decoder, Fault, FrameError, ResetCause, SchemeKind, Status, Telemetry,
     MAX_FRAME, MAX_PAYLOAD,
 };
-use proptest::prelude::*;
 
 fn encode(t: &Telemetry, seq: u16) -> Vec<u8> {
-    let mut p = [0u8; MAX_PAYLOAD];
-    let n = t.payload(seq, &mut p).unwrap();
     let mut f = [0u8; MAX_FRAME];
-    let m = frame(&p[..n], &mut f).unwrap();
+    let m = t.to_frame(seq, &mut f).unwrap();
     f[..m].to_vec()
 }
 
@@ -22,7 +23,7 @@ fn decode_all(bytes: &[u8]) -> (Vec<(u16, Telemetry)>, Decoder) {
     let mut v = vec![];
     for b in bytes {
         if let Some(n) = d.push(*b, &mut out) {
-            match Telemetry::parse(&out[..n]) {
+            match Telemetry::decode(&out[..n]) {
                 Ok(x) => v.push(x),
                 Err(_) => d.count_corrupt(),
             }
@@ -53,7 +54,7 @@ fn samples() -> Vec<Telemetry> {
         Telemetry::Calibration {
             bias_radps: [1e-3, 2e-3, -3e-3],
             m_k: [1e-3, 0.0, 3e-3],
-            status: 0,
+            status: CalStatus::Accepted,
         },
         Telemetry::CalibrationChange {
             d_bias_radps: [-2e-5, 0.0, 4e-6],
@@ -61,12 +62,34 @@ fn samples() -> Vec<Telemetry> {
         },
         Telemetry::Fault {
             t_us: 40_000,
-            code: 3,
+            fault: Fault::ImuStuck,
             count: 7,
         },
         Telemetry::Ack {
             seq: 9,
-            status: reason::BAD_RATE,
+            status: Status::BadRate,
+        },
+        Telemetry::Health {
+            t_us: 50_000,
+            reset: ResetCause::IndependentWatchdog,
+            tick_worst: 11_077,
+            tick_overruns: 0,
+            nav_worst: 553_315,
+            nav_overruns: 1,
+            samples_dropped: 2,
+            samples_duplicated: 3,
+            rx_bytes: 12_248,
+            rx_lost: 0,
+        },
+        Telemetry::Config {
+            lat_e7: -339_000_000,
+            height_mm: 25_000,
+            base_deg: [0.5, -1.0, 271.0 - 360.0],
+            scheme: SchemeKind::Reciprocating,
+            rate_dps: 45.0,
+            count: 2,
+            aided: 1,
+            lon_e7: 184_000_000,
         },
     ]
 }
@@ -134,73 +157,66 @@ fn corruption_loss_and_overflow_are_counted() {
 fn commands_are_bounds_checked() {
     let enc = |c: Command| {
         let mut p = [0u8; MAX_PAYLOAD];
-        let n = c.payload(1, &mut p).unwrap();
+        let n = c.encode(1, &mut p).unwrap();
         Command::parse(&p[..n])
     };
-    assert_eq!(enc(Command::Start), Ok((1, Command::Start)));
+    assert_eq!(enc(Command::Start {}), Ok((1, Command::Start {})));
     let ok = Command::SetScheme {
-        kind: 2,
+        kind: SchemeKind::Reciprocating,
         rate_dps: 30.0,
         count: 1,
     };
     assert_eq!(enc(ok), Ok((1, ok)));
+    let scheme = |kind, rate_dps, count| Command::SetScheme {
+        kind,
+        rate_dps,
+        count,
+    };
     for (c, why) in [
+        (scheme(SchemeKind::Continuous, 0.0, 0), Status::BadRate),
+        (scheme(SchemeKind::Continuous, f32::NAN, 0), Status::BadRate),
+        (scheme(SchemeKind::Continuous, 500.0, 0), Status::BadRate),
+        (scheme(SchemeKind::Indexed, 30.0, 3), Status::BadCount),
+        (scheme(SchemeKind::Reciprocating, 30.0, 0), Status::BadCount),
         (
-            Command::SetScheme {
-                kind: 9,
-                rate_dps: 30.0,
-                count: 1,
+            Command::SetSite {
+                lat_e7: 900_000_001,
+                height_mm: 0,
             },
-            reason::BAD_SCHEME,
+            Status::BadSite,
         ),
         (
-            Command::SetScheme {
-                kind: 1,
-                rate_dps: 0.0,
-                count: 0,
+            Command::SetBase {
+                roll_deg: 0.0,
+                pitch_deg: 91.0,
+                heading_deg: 0.0,
             },
-            reason::BAD_RATE,
-        ),
-        (
-            Command::SetScheme {
-                kind: 1,
-                rate_dps: f32::NAN,
-                count: 0,
-            },
-            reason::BAD_RATE,
-        ),
-        (
-            Command::SetScheme {
-                kind: 1,
-                rate_dps: 500.0,
-                count: 0,
-            },
-            reason::BAD_RATE,
-        ),
-        (
-            Command::SetScheme {
-                kind: 3,
-                rate_dps: 30.0,
-                count: 3,
-            },
-            reason::BAD_COUNT,
-        ),
-        (
-            Command::SetScheme {
-                kind: 2,
-                rate_dps: 30.0,
-                count: 0,
-            },
-            reason::BAD_COUNT,
+            Status::BadBase,
         ),
     ] {
         assert_eq!(enc(c), Err(FrameError::OutOfBounds(why)), "{c:?}");
     }
+    // Negative latitudes and headings are sites like any other.
+    let south = Command::SetSite {
+        lat_e7: -339_000_000,
+        height_mm: -5_000,
+    };
+    assert_eq!(enc(south), Ok((1, south)));
+    // An unknown scheme kind on the wire is refused with BadScheme (the
+    // enum cannot hold it).
+    let mut p = [0u8; MAX_PAYLOAD];
+    let n = ok.encode(1, &mut p).unwrap();
+    p[3] = 9;
+    assert_eq!(
+        Command::parse(&p[..n]),
+        Err(FrameError::OutOfBounds(Status::BadScheme))
+    );
     assert!(Command::parse(&[0x82]).is_err(), "truncated");
     assert!(Command::parse(&[0x82, 1, 0, 7]).is_err(), "trailing byte");
 
-    // A GNSS fix round-trips (negative longitude and down velocity too);
-    // out-of-range coordinates and zero sigmas are refused with BAD_FIX.
+    // A GNSS fix round-trips with its time of validity (negative longitude
+    // and down velocity too); out-of-range coordinates and zero sigmas are
+    // refused with BadFix.
     let fix = GnssFix {
         lat_e7: 305_300_000,
         lon_e7: -1_143_000_000,
@@ -210,7 +226,11 @@ fn commands_are_bounds_checked() {
         sigma_v_mm: 3_000,
         sigma_vel_mmps: 50,
     };
-    assert_eq!(enc(Command::GnssFix(fix)), Ok((1, Command::GnssFix(fix))));
+    let at = |fix| Command::GnssFix {
+        t_valid_us: 4_294_967_296 + 123,
+        fix,
+    };
+    assert_eq!(enc(at(fix)), Ok((1, at(fix))));
     for bad in [
         GnssFix {
             lat_e7: 900_000_001,
@@ -230,14 +250,95 @@ fn commands_are_bounds_checked() {
         },
     ] {
         assert_eq!(
-            enc(Command::GnssFix(bad)),
-            Err(FrameError::OutOfBounds(reason::BAD_FIX)),
+            enc(at(bad)),
+            Err(FrameError::OutOfBounds(Status::BadFix)),
             "{bad:?}"
         );
     }
-    let mut p = [0u8; MAX_PAYLOAD];
-    let n = Command::GnssFix(fix).payload(1, &mut p).unwrap();
+    let n = at(fix).encode(1, &mut p).unwrap();
     assert!(Command::parse(&p[..n - 1]).is_err(), "truncated fix");
+}
+
+#[test]
+fn codes_refuse_values_they_do_not_have() {
+    for f in Fault::ALL {
+        assert_eq!(Fault::try_from(f.code()), Ok(*f));
+    }
+    assert_eq!(Fault::ALL.len(), protocol::codes::FAULT_KINDS);
+    assert_eq!(Fault::try_from(0), Err(0));
+    assert_eq!(Fault::try_from(200), Err(200));
+    assert_eq!(Status::try_from(11), Err(11));
+    assert_eq!(CalStatus::try_from(0x80), Ok(CalStatus::Stored));
+    assert_eq!(SchemeKind::try_from(4), Err(4));
+    // A fault frame with an unknown code does not decode.
+    let mut f = [0u8; MAX_PAYLOAD];
+    let n = Telemetry::Fault {
+        t_us: 1,
+        fault: Fault::MotorStall,
+        count: 1,
+    }
+    .encode(0, &mut f)
+    .unwrap();
+    f[11] = 99;
+    assert_eq!(Telemetry::decode(&f[..n]), Err(FrameError::UnknownCode(99)));
+}
+
+#[test]
+fn reset_causes_follow_rcc_csr() {
+    // RM0090 6.3.21: a power-on sets POR, PIN and BOR; a watchdog reset
+    // sets IWDG and PIN; a reset button PIN alone.
+    let bit = |n: u32| 1u32 << n;
+    assert_eq!(
+        ResetCause::from_rcc_csr(bit(27) | bit(26) | bit(25)),
+        ResetCause::PowerOn
+    );
+    assert_eq!(
+        ResetCause::from_rcc_csr(bit(29) | bit(26)),
+        ResetCause::IndependentWatchdog
+    );
+    assert_eq!(ResetCause::from_rcc_csr(bit(26)), ResetCause::Pin);
+    assert_eq!(
+        ResetCause::from_rcc_csr(bit(25) | bit(26)),
+        ResetCause::BrownOut
+    );
+    assert_eq!(
+        ResetCause::from_rcc_csr(bit(28) | bit(26)),
+        ResetCause::Software
+    );
+    assert_eq!(ResetCause::from_rcc_csr(0), ResetCause::Unknown);
+}
+
+#[test]
+fn the_flash_record_round_trips_and_any_damage_is_refused() {
+    let r = Record {
+        seq: 41,
+        config: BoardConfig {
+            lat_e7: -339_250_000,
+            height_mm: 31_000,
+            base_deg: [0.2, -0.4, -75.0],
+            scheme: SchemeKind::Indexed,
+            rate_dps: 60.0,
+            count: 4,
+            aided: true,
+            lon_e7: 184_230_000,
+        },
+        calibration: Some(StoredCalibration {
+            bias_radps: [1e-3, -2e-3, 3e-4],
+            m_k: [4e-3, -1e-3, 2e-3],
+        }),
+    };
+    let b = r.encode();
+    assert_eq!(b.len(), RECORD_LEN);
+    assert_eq!(RECORD_LEN % 4, 0, "whole flash words");
+    assert_eq!(Record::decode(&b), Ok(r));
+    for i in 0..RECORD_LEN {
+        for bit in 0..8 {
+            let mut d = b;
+            d[i] ^= 1 << bit;
+            assert!(Record::decode(&d).is_err(), "byte {i} bit {bit}");
+        }
+    }
+    assert!(Record::decode(&[0xFF; RECORD_LEN]).is_err(), "blank flash");
 }
 
 proptest! {

@@ -14,7 +14,7 @@ fn main() {
             std::process::exit(1);
         }
     };
-    let r = rins_tests::twin::run(&bytes, None);
+    let r = rins_tests::twin::run(&bytes, rins_tests::twin::TwinOptions::default());
     let t = protocol::replay::encode_outcome(&r.outcome);
     let n = bytes.len();
     bytes[n - protocol::replay::TRAILER..].copy_from_slice(&t);
