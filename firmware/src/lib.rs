@@ -20,7 +20,7 @@
 //!
 //! Frames and units as in `core-nav` (its crate docs).
 
-#![no_std]
+#![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 #![cfg_attr(
     not(test),
@@ -39,6 +39,7 @@ pub mod faults;
 pub mod icm42688;
 pub mod link;
 pub mod navigation;
+pub mod queue;
 pub mod record;
 pub mod replay;
 pub mod tasks;

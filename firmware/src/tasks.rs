@@ -18,7 +18,7 @@
 //! 921,600 baud and the tick may take 200 µs.
 //!
 //! Between tasks only lock-free single-producer single-consumer queues
-//! (heapless `spsc`) and atomic counters: no task ever waits for a lower
+//! ([`crate::queue`]) and atomic counters: no task ever waits for a lower
 //! one, and a full queue is a counted fault, never a wait.
 
 use crate::clock::{Edge, SampleClock};
@@ -27,11 +27,11 @@ use crate::faults::Fault;
 use crate::icm42688::{RawSample, Sample};
 use crate::link::{scheme, Link, Route};
 use crate::navigation::{BoardAided, NavCmd, NavConfig, Navigator, Outbound};
+use crate::queue::{Consumer, Producer, Queue};
 use crate::record::{Flash, Journal};
 use crate::watchdog::{Feeder, Progress};
 use core::sync::atomic::{AtomicU32, Ordering};
 use core_nav::aided::{AidedConfig, OriginE7};
-use heapless::spsc::{Consumer, Producer, Queue};
 use protocol::record::BoardConfig;
 use protocol::{ResetCause, SchemeKind, Telemetry};
 
@@ -213,9 +213,9 @@ impl Queues {
 /// The UART interrupt's ends of the byte queues.
 pub struct UartEnds<'a> {
     /// Received bytes in.
-    pub rx: Producer<'a, u8>,
+    pub rx: Producer<'a, u8, RX_Q>,
     /// Bytes to send out.
-    pub tx: Consumer<'a, u8>,
+    pub tx: Consumer<'a, u8, TX_Q>,
 }
 
 impl UartEnds<'_> {
@@ -374,10 +374,10 @@ pub struct TickTask<'a> {
     pub control: Control,
     /// The sensor's sample clock.
     pub clock: SampleClock,
-    nav_in: Producer<'a, NavInput>,
-    from_nav: Consumer<'a, ControlCmd>,
-    from_link: Consumer<'a, ControlCmd>,
-    out: Producer<'a, Telemetry>,
+    nav_in: Producer<'a, NavInput, NAV_Q>,
+    from_nav: Consumer<'a, ControlCmd, CMD_Q>,
+    from_link: Consumer<'a, ControlCmd, CMD_Q>,
+    out: Producer<'a, Telemetry, OUT_Q>,
 }
 
 impl TickTask<'_> {
@@ -443,10 +443,10 @@ impl TickTask<'_> {
 pub struct NavTask<'a> {
     /// Its logic.
     pub nav: Navigator<'a>,
-    input: Consumer<'a, NavInput>,
-    cmds: Consumer<'a, NavCmd>,
-    ctl: Producer<'a, ControlCmd>,
-    out: Producer<'a, Outbound>,
+    input: Consumer<'a, NavInput, NAV_Q>,
+    cmds: Consumer<'a, NavCmd, CMD_Q>,
+    ctl: Producer<'a, ControlCmd, CMD_Q>,
+    out: Producer<'a, Outbound, OUT_Q>,
 }
 
 impl NavTask<'_> {
@@ -490,12 +490,12 @@ pub struct LinkTask<'a> {
     pub link: Link,
     /// The flash record.
     pub journal: Journal,
-    rx: Consumer<'a, u8>,
-    tx: Producer<'a, u8>,
-    from_tick: Consumer<'a, Telemetry>,
-    from_nav: Consumer<'a, Outbound>,
-    to_tick: Producer<'a, ControlCmd>,
-    to_nav: Producer<'a, NavCmd>,
+    rx: Consumer<'a, u8, RX_Q>,
+    tx: Producer<'a, u8, TX_Q>,
+    from_tick: Consumer<'a, Telemetry, OUT_Q>,
+    from_nav: Consumer<'a, Outbound, OUT_Q>,
+    to_tick: Producer<'a, ControlCmd, CMD_Q>,
+    to_nav: Producer<'a, NavCmd, CMD_Q>,
     feeder: Feeder,
     sensors: bool,
     clock_start: u64,
@@ -668,7 +668,7 @@ impl LinkTask<'_> {
     }
 }
 
-fn send(link: &mut Link, tx: &mut Producer<'_, u8>, t: &Telemetry) {
+fn send(link: &mut Link, tx: &mut Producer<'_, u8, TX_Q>, t: &Telemetry) {
     link.send(t, &mut |bytes| {
         if tx.capacity() - tx.len() < bytes.len() {
             return false;
