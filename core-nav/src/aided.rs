@@ -18,7 +18,9 @@
 //! detector is evaluated, and the update made, every [`ZUPT_EVERY`]
 //! samples (consecutive zero-velocity measurements 10 ms apart are not
 //! independent; one every 0.1 s keeps the filter honest and the step
-//! cheap).
+//! cheap); an evaluation that falls on a step that took a fix is made on
+//! the next step, so that how the fixes' epochs fall against the sample
+//! count never thins the updates.
 //!
 //! **GNSS fixes** come as a receiver gives them ([`GnssFix`]: latitude and
 //! longitude in 1e-7 deg, height and velocity in mm, mm/s): the position
@@ -212,6 +214,8 @@ pub struct AidedNav<T: Real> {
     filled: usize,
     steps: u32,
     still: bool,
+    /// A detector evaluation is due (deferred past a step that took a fix).
+    zupt_due: bool,
     pending: Option<(GnssFix, Option<u64>)>,
     /// The last [`HISTORY`] states (a ring, by sample).
     past: [Past<T>; HISTORY],
@@ -286,6 +290,7 @@ impl<T: Real> AidedNav<T> {
             filled: 0,
             steps: 0,
             still: false,
+            zupt_due: false,
             pending: None,
             past: [Past::default(); HISTORY],
             past_head: 0,
@@ -309,6 +314,7 @@ impl<T: Real> AidedNav<T> {
             filled: 0,
             steps: 0,
             still: false,
+            zupt_due: false,
             pending: None,
             past: [Past::default(); HISTORY],
             past_head: 0,
@@ -344,6 +350,7 @@ impl<T: Real> AidedNav<T> {
         self.filled = 0;
         self.steps = 0;
         self.still = false;
+        self.zupt_due = false;
         self.pending = None;
         self.past.fill(Past::default());
         self.past_head = 0;
@@ -540,7 +547,11 @@ impl<T: Real> AidedNav<T> {
         // Not in a step that took a fix: its velocity update measured the
         // same thing, and the two together would double the step's worst
         // case on a board (a propagation and nine scalar updates).
-        if self.cfg.zupt && self.steps.is_multiple_of(ZUPT_EVERY) && !corrected {
+        if self.steps.is_multiple_of(ZUPT_EVERY) {
+            self.zupt_due = true;
+        }
+        if self.cfg.zupt && self.zupt_due && !corrected {
+            self.zupt_due = false;
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
             if self.still {
                 let z = -st.v_n;
