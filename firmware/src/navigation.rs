@@ -157,14 +157,44 @@ enum Stage {
     Idle,
 }
 
-/// The navigation task's state (`'a`: the filter's workspace, a static on
-/// the board).
+/// The navigation task's large state, statics on the board (36 KiB in
+/// all): built in place at boot, never as a value on a stack.
+pub struct NavMemory<'a> {
+    /// The filter's workspace.
+    pub ws: &'a mut Workspace<f32>,
+    /// Where the aided navigator is built (12 KiB).
+    pub aided: &'a mut core::mem::MaybeUninit<AidedNav<f32>>,
+    /// Where the calibration's sums are built (4 KiB).
+    pub cal: &'a mut core::mem::MaybeUninit<PowerUp>,
+}
+
+/// Builds the aided navigator in its static, in a frame of its own (its
+/// temporaries gone before the rest of the boot's).
+#[inline(never)]
+fn place_aided(
+    slot: &mut core::mem::MaybeUninit<AidedNav<f32>>,
+    filter: AidedConfig,
+) -> &mut AidedNav<f32> {
+    slot.write(AidedNav::placeholder(filter))
+}
+
+/// Builds the calibration's sums in their static, in a frame of their own.
+#[inline(never)]
+fn place_cal(
+    slot: &mut core::mem::MaybeUninit<PowerUp>,
+    cfg: CalConfig,
+    t_us: u64,
+) -> &mut PowerUp {
+    slot.write(PowerUp::new(cfg, t_us))
+}
+
+/// The navigation task's state (`'a`: its [`NavMemory`]).
 pub struct Navigator<'a> {
     cfg: NavConfig,
     mode: Mode,
     stage: Stage,
-    cal: PowerUp,
-    aided: AidedNav<f32>,
+    cal: &'a mut PowerUp,
+    aided: &'a mut AidedNav<f32>,
     ws: &'a mut Workspace<f32>,
     /// The calibration in use.
     pub calibration: Option<GyroCalibration>,
@@ -194,7 +224,7 @@ impl<'a> Navigator<'a> {
         t_us: u64,
         stored: Option<StoredCalibration>,
         filter: AidedConfig,
-        ws: &'a mut Workspace<f32>,
+        mem: NavMemory<'a>,
     ) -> Self {
         let previous = stored.map(|s| GyroCalibration {
             bias: Vector3::from(s.bias_radps).map(f64::from),
@@ -206,9 +236,9 @@ impl<'a> Navigator<'a> {
             cfg,
             mode: Mode::CalStatic(t_us),
             stage: Stage::Cal,
-            cal: PowerUp::new(cfg.cal, t_us),
-            aided: AidedNav::placeholder(filter),
-            ws,
+            cal: place_cal(mem.cal, cfg.cal, t_us),
+            aided: place_aided(mem.aided, filter),
+            ws: mem.ws,
             calibration: None,
             previous,
             nav: None,
@@ -247,7 +277,7 @@ impl<'a> Navigator<'a> {
 
     /// The aided navigator (while navigating with it).
     pub fn aided(&self) -> Option<&AidedNav<f32>> {
-        (self.stage == Stage::Aided).then_some(&self.aided)
+        (self.stage == Stage::Aided).then_some(&*self.aided)
     }
 
     /// The last input (its time and mean sample).
@@ -459,7 +489,7 @@ impl<'a> Navigator<'a> {
         self.due_fix(x.t_us, out);
         let sample = self.imu_sample(x.t_us, &x.mean);
         let step = if self.stage == Stage::Aided {
-            let a = &mut self.aided;
+            let a = &mut *self.aided;
             a.step_in(&sample, &x.angle, x.table_rate_radps, self.ws)
                 .map(|_| *a.nav().state())
         } else {

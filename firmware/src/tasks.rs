@@ -26,7 +26,7 @@ use crate::control::{Control, ControlCmd, ControlConfig, NavInput};
 use crate::faults::Fault;
 use crate::icm42688::{RawSample, Sample};
 use crate::link::{scheme, Link, Route};
-use crate::navigation::{BoardAided, NavCmd, NavConfig, Navigator, Outbound};
+use crate::navigation::{BoardAided, NavCmd, NavConfig, NavMemory, Navigator, Outbound};
 use crate::queue::{Consumer, Producer, Queue};
 use crate::record::{Flash, Journal};
 use crate::watchdog::{Feeder, Progress};
@@ -97,6 +97,9 @@ pub struct Stats {
     pub nav_overruns: AtomicU32,
     /// The link task's worst case, cycles.
     pub link_worst: AtomicU32,
+    /// The UART interrupt's worst case, cycles (what it holds the tasks
+    /// off; what holds it off is in the README's margin analysis).
+    pub uart_worst: AtomicU32,
     /// Samples dropped (data-ready late).
     pub dropped: AtomicU32,
     /// Data-ready edges without new data.
@@ -173,10 +176,13 @@ pub fn nav_config(c: &BoardConfig, t: &Tuning) -> NavConfig {
     }
 }
 
-/// The program's static memory: the queues between the tasks and the
-/// filter's workspace (a static on the board, never on a stack).
+/// The program's static memory: the queues between the tasks, the
+/// filter's workspace, the aided navigator and the calibration's sums
+/// (a static on the board, never on a stack).
 pub struct Queues {
     ws: core_nav::eskf::Workspace<f32>,
+    aided: core::mem::MaybeUninit<core_nav::aided::AidedNav<f32>>,
+    cal: core::mem::MaybeUninit<crate::calibration::PowerUp>,
     nav_in: Queue<NavInput, NAV_Q>,
     nav_ctl: Queue<ControlCmd, CMD_Q>,
     link_ctl: Queue<ControlCmd, CMD_Q>,
@@ -198,6 +204,8 @@ impl Queues {
     pub const fn new() -> Self {
         Self {
             ws: core_nav::eskf::Workspace::ZERO,
+            aided: core::mem::MaybeUninit::uninit(),
+            cal: core::mem::MaybeUninit::uninit(),
             nav_in: Queue::new(),
             nav_ctl: Queue::new(),
             link_ctl: Queue::new(),
@@ -269,11 +277,16 @@ impl<'a> Program<'a> {
     /// The tuning's scheme or the stored one is out of the table's limits
     /// (the factory configuration is then used; if that fails too, a build
     /// error the host tests catch).
+    ///
+    /// Built straight into `slot` (a static on the board): the program is
+    /// 21 KiB, and a value of it built on `init`'s stack and then moved
+    /// took 72 KiB of stack at boot.
     pub fn new(
+        slot: &'a mut core::mem::MaybeUninit<Self>,
         queues: &'a mut Queues,
         journal: Journal,
         boot: Boot,
-    ) -> Result<Self, core_nav::NavError> {
+    ) -> Result<&'a mut Self, core_nav::NavError> {
         let stored = journal.current;
         let mut config = stored.map_or(FACTORY, |r| r.config);
         let t = boot.tuning;
@@ -291,14 +304,18 @@ impl<'a> Program<'a> {
         let (tick_out_p, tick_out_c) = queues.tick_out.split();
         let (nav_out_p, nav_out_c) = queues.nav_out.split();
         let (rx_p, rx_c) = queues.rx.split();
-        let ws = &mut queues.ws;
+        let mem = NavMemory {
+            ws: &mut queues.ws,
+            aided: &mut queues.aided,
+            cal: &mut queues.cal,
+        };
         let (tx_p, tx_c) = queues.tx.split();
         let mut navigator = Navigator::new(
             nav_config(&config, &t),
             boot.now_us,
             stored.and_then(|r| r.calibration),
             t.filter,
-            ws,
+            mem,
         );
         let mut link = LinkTask {
             link: Link::new(config, t.control.limits),
@@ -346,7 +363,7 @@ impl<'a> Program<'a> {
                 count: 1,
             });
         }
-        Ok(Self {
+        Ok(slot.write(Self {
             tick: TickTask {
                 control,
                 clock: SampleClock::new(t.control.sample_period_us),
@@ -364,7 +381,7 @@ impl<'a> Program<'a> {
             },
             link,
             uart: UartEnds { rx: rx_p, tx: tx_c },
-        })
+        }))
     }
 }
 

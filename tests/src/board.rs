@@ -126,7 +126,7 @@ impl Watchdog for CountingWatchdog {
 /// The board's program on the host.
 pub struct HostBoard {
     /// The tasks.
-    pub program: Program<'static>,
+    pub program: &'static mut Program<'static>,
     /// Their counters.
     pub stats: &'static Stats,
     /// The flash.
@@ -155,7 +155,9 @@ impl HostBoard {
         let stats: &'static Stats = Box::leak(Box::default());
         let journal =
             Journal::open(&mut flash, JOURNAL).unwrap_or_else(|_| Journal::blank(JOURNAL));
+        let slot = Box::leak(Box::new(core::mem::MaybeUninit::uninit()));
         let program = Program::new(
+            slot,
             queues,
             journal,
             Boot {
