@@ -19,6 +19,7 @@ pub static STATS: Stats = Stats {
     nav_worst: core::sync::atomic::AtomicU32::new(0),
     nav_overruns: core::sync::atomic::AtomicU32::new(0),
     link_worst: core::sync::atomic::AtomicU32::new(0),
+    uart_worst: core::sync::atomic::AtomicU32::new(0),
     dropped: core::sync::atomic::AtomicU32::new(0),
     duplicated: core::sync::atomic::AtomicU32::new(0),
     rx_bytes: core::sync::atomic::AtomicU32::new(0),
@@ -156,8 +157,8 @@ pub fn start_usart(u: &pac::USART3, apb1_hz: u32) {
 /// The USART's interrupt: every received byte into the receive queue
 /// (with the overrun flag: bytes lost before it), the next queued byte out
 /// while the transmitter is empty, the transmit interrupt off when the
-/// queue is.
-pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Stats) {
+/// queue is. Returns the bytes sent.
+pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Stats) -> u32 {
     let sr = u.sr().read().bits();
     if sr & ((1 << 5) | (1 << 3)) != 0 {
         // Reading SR then DR clears RXNE and ORE.
@@ -165,8 +166,9 @@ pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Sta
         q.received(b, sr & (1 << 3) != 0, stats);
     }
     if u.cr1().read().bits() & (1 << 7) == 0 {
-        return;
+        return 0;
     }
+    let mut sent = 0;
     // While the data register is empty: on the chip that is one byte (two
     // when the shift register is idle too), the next when TXE interrupts
     // again; QEMU sends each byte at once and drains the queue here.
@@ -175,15 +177,17 @@ pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Sta
             // SAFETY: a byte into the data register.
             Some(b) => {
                 u.dr().write(|w| unsafe { w.bits(u16::from(b)) });
+                sent += 1;
             }
             None => {
                 // SAFETY: TXEIE off, the rest of CR1 kept.
                 u.cr1()
                     .modify(|r, w| unsafe { w.bits(r.bits() & !(1 << 7)) });
-                return;
+                return sent;
             }
         }
     }
+    sent
 }
 
 /// Turns the USART's transmit interrupt on (bytes are queued) and pends
