@@ -19,6 +19,7 @@ pub mod qemu_replay;
 pub mod record;
 pub mod report;
 pub mod reproduce;
+pub mod ubx;
 
 /// A progress bar for a job measured in fractions (hidden when not a terminal).
 pub fn progress_bar(what: &str) -> indicatif::ProgressBar {

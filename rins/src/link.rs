@@ -233,3 +233,244 @@ impl Relay {
         self.fixes.len() - self.next
     }
 }
+
+/// The longest a receiver's solution may take to reach the host (its
+/// computation and output at the port's baud): u-blox receivers report
+/// within ~100 ms of the epoch; a figure outside [0, 2 s] means the host's
+/// UTC clock is not synchronised (NTP) and the fix's epoch cannot be put
+/// on the board's clock.
+pub const MAX_RECEIVER_LATENCY_US: i64 = 2_000_000;
+
+/// A solution from a live receiver, with when the host read it: its UTC
+/// clock (µs since 1970) and its monotonic clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Arrival {
+    /// The receiver's solution.
+    pub pvt: crate::ubx::NavPvt,
+    /// The host's UTC clock at arrival, µs since 1970.
+    pub host_utc_us: i64,
+    /// The host's monotonic clock at arrival.
+    pub at: Instant,
+}
+
+/// Why a live fix was not relayed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Skip {
+    /// No valid 3-D solution, or no valid UTC time.
+    NoFix,
+    /// It came before the board's first IMU frame (no clock to map to).
+    NoBoardClock,
+    /// The receiver's epoch against the host's UTC clock is outside
+    /// [0, [`MAX_RECEIVER_LATENCY_US`]]: the host's clock is off.
+    ClockMismatch,
+}
+
+/// A fix's time of validity on the board's clock, µs: the board's time
+/// when the host read it (the last IMU frame's board time `board_us`, read
+/// at `board_at`, plus the host's monotonic time since) less the
+/// receiver's latency (the host's UTC at arrival less the fix's UTC
+/// epoch). The link's own latency (a telemetry frame's bytes at 921,600
+/// baud, well under a millisecond) is neglected.
+///
+/// # Errors
+/// [`Skip::ClockMismatch`].
+pub fn board_time_of_validity(
+    board_us: u64,
+    board_at: Instant,
+    a: &Arrival,
+    fix_utc_us: i64,
+) -> Result<u64, Skip> {
+    let latency = a.host_utc_us - fix_utc_us;
+    if !(0..=MAX_RECEIVER_LATENCY_US).contains(&latency) {
+        return Err(Skip::ClockMismatch);
+    }
+    let since = match a.at.checked_duration_since(board_at) {
+        Some(d) => d.as_micros() as i64,
+        None => -(board_at.duration_since(a.at).as_micros() as i64),
+    };
+    Ok((board_us as i64 + since - latency).max(0) as u64)
+}
+
+/// A live receiver's fixes (UBX-NAV-PVT on a port) relayed to a board,
+/// each at its time of validity on the board's clock.
+pub struct LiveRelay {
+    rx: std::sync::mpsc::Receiver<Arrival>,
+    board: Option<(u64, Instant)>,
+    /// Fixes sent.
+    pub sent: usize,
+    /// Solutions not relayed, by reason.
+    pub skipped: Vec<(Skip, usize)>,
+    /// The receiver's frames with a bad checksum, shared with its reader.
+    pub bad_frames: std::sync::Arc<std::sync::atomic::AtomicU32>,
+}
+
+impl LiveRelay {
+    /// Reads `port` on a thread of its own until it closes.
+    pub fn spawn(mut port: Box<dyn Port>) -> Self {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let bad = std::sync::Arc::new(std::sync::atomic::AtomicU32::new(0));
+        let bad_frames = bad.clone();
+        std::thread::spawn(move || {
+            let mut d = crate::ubx::Decoder::default();
+            let mut buf = [0u8; 1024];
+            loop {
+                let n = match port.read(&mut buf) {
+                    Ok(0) => return,
+                    Ok(n) => n,
+                    Err(e) if matches!(e.kind(), std::io::ErrorKind::TimedOut) => continue,
+                    Err(_) => return,
+                };
+                let host_utc_us = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_micros() as i64);
+                let at = Instant::now();
+                for (c, i, p) in d.push(&buf[..n]) {
+                    if let Some(pvt) = crate::ubx::NavPvt::parse(c, i, &p) {
+                        let arrival = Arrival {
+                            pvt,
+                            host_utc_us,
+                            at,
+                        };
+                        if tx.send(arrival).is_err() {
+                            return;
+                        }
+                    }
+                }
+                bad.store(d.bad_checksum, std::sync::atomic::Ordering::Relaxed);
+            }
+        });
+        Self {
+            rx,
+            board: None,
+            sent: 0,
+            skipped: vec![],
+            bad_frames,
+        }
+    }
+
+    fn skip(&mut self, why: Skip) {
+        match self.skipped.iter_mut().find(|(w, _)| *w == why) {
+            Some((_, n)) => *n += 1,
+            None => self.skipped.push((why, 1)),
+        }
+    }
+
+    /// The fixes that arrived, now that frame `t` (when it is an IMU
+    /// frame) shows the board's time.
+    pub fn due(&mut self, t: &Telemetry) -> Vec<Command> {
+        if let Telemetry::Imu { t_us, .. } = *t {
+            self.board = Some((t_us, Instant::now()));
+        }
+        let mut out = vec![];
+        while let Ok(a) = self.rx.try_recv() {
+            let (Some(fix), Some(utc)) = (a.pvt.fix(), a.pvt.utc_unix_us()) else {
+                self.skip(Skip::NoFix);
+                continue;
+            };
+            let Some((b_us, b_at)) = self.board else {
+                self.skip(Skip::NoBoardClock);
+                continue;
+            };
+            match board_time_of_validity(b_us, b_at, &a, utc) {
+                Ok(t_valid_us) => {
+                    out.push(Command::GnssFix { t_valid_us, fix });
+                    self.sent += 1;
+                }
+                Err(why) => self.skip(why),
+            }
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arrival(host_utc_us: i64, at: Instant) -> Arrival {
+        let mut d = crate::ubx::Decoder::default();
+        let bytes = crate::ubx::tests_support::real_nav_pvt();
+        let (c, i, p) = d.push(&bytes).remove(0);
+        Arrival {
+            pvt: crate::ubx::NavPvt::parse(c, i, &p).unwrap(),
+            host_utc_us,
+            at,
+        }
+    }
+
+    #[test]
+    fn a_fix_is_put_on_the_boards_clock_at_its_epoch() {
+        // The board said 10 s at `t0`; the fix's bytes came 250 ms later
+        // (host monotonic), 120 ms after its UTC epoch (host UTC): its
+        // time of validity is 10.25 - 0.12 = 10.13 s on the board's clock.
+        let t0 = Instant::now();
+        let a = arrival(1_000_120_000, t0 + Duration::from_millis(250));
+        let t = board_time_of_validity(10_000_000, t0, &a, 1_000_000_000).unwrap();
+        assert_eq!(t, 10_130_000);
+        // A fix read before the board's last IMU frame (the frames were
+        // drained later) maps backwards in time just as well.
+        let b = arrival(1_000_120_000, t0);
+        let t = board_time_of_validity(
+            10_250_000,
+            t0 + Duration::from_millis(250),
+            &b,
+            1_000_000_000,
+        );
+        assert_eq!(t, Ok(10_000_000 - 120_000));
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_live_receivers_fixes_reach_the_board_at_their_epoch() {
+        // A receiver on a port (one end of a socket pair) sends a solution
+        // whose epoch is 100 ms before now; the board's last IMU frame
+        // said 50 s just now. The fix's time of validity is 49.9 s on the
+        // board's clock, within the few ms the threads take.
+        let (host, mut receiver) = std::os::unix::net::UnixStream::pair().unwrap();
+        host.set_read_timeout(Some(Duration::from_millis(50)))
+            .unwrap();
+        let mut relay = LiveRelay::spawn(Box::new(host));
+        let now = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap()
+            .as_micros() as i64;
+        let imu = Telemetry::Imu {
+            t_us: 50_000_000,
+            gyro_radps: [0.0; 3],
+            accel_mps2: [0.0; 3],
+            temp_c: 25.0,
+        };
+        assert!(relay.due(&imu).is_empty());
+        receiver
+            .write_all(&crate::ubx::tests_support::real_nav_pvt_at(now - 100_000))
+            .unwrap();
+        let start = Instant::now();
+        let mut got = vec![];
+        while got.is_empty() && start.elapsed() < Duration::from_secs(5) {
+            std::thread::sleep(Duration::from_millis(5));
+            got = relay.due(&Telemetry::Ack {
+                seq: 0,
+                status: Status::Accepted,
+            });
+        }
+        let Some(Command::GnssFix { t_valid_us, fix }) = got.first().copied() else {
+            panic!("no fix relayed: {:?}", relay.skipped);
+        };
+        assert_eq!(fix.lat_e7, 534_507_692);
+        // 50 ms: the test's sleeps and the scheduler, not the mapping.
+        assert!(t_valid_us.abs_diff(49_900_000) < 50_000, "{t_valid_us}");
+    }
+
+    #[test]
+    fn a_host_clock_off_by_seconds_is_refused_not_relayed() {
+        let t0 = Instant::now();
+        // The host's UTC is 3 s behind the receiver's epoch, or 5 s ahead.
+        for host in [997_000_000, 1_005_000_000] {
+            let a = arrival(host, t0);
+            assert_eq!(
+                board_time_of_validity(10_000_000, t0, &a, 1_000_000_000),
+                Err(Skip::ClockMismatch)
+            );
+        }
+    }
+}

@@ -39,12 +39,19 @@ pub struct Args {
     /// and aided mode (the commands `rins command` sends; each acknowledged).
     #[arg(long, requires = "port")]
     pub like: Option<PathBuf>,
-    /// Relay these GNSS fixes to the board (a recording-v1 `gnss.csv`),
-    /// each with its time of validity on the board's clock (with `--like`,
+    /// Relay GNSS fixes to the board, each with its time of validity on
+    /// the board's clock. FILE: a recording-v1 `gnss.csv` (with `--like`,
     /// its times are the recording's and the board's first IMU frame is the
-    /// recording's first sample; without, they are the board's).
-    #[arg(long, requires = "port")]
-    pub gnss: Option<PathBuf>,
+    /// recording's first sample; without, they are the board's). PORT (any
+    /// other value: a serial device, or `unix:PATH`): a live u-blox
+    /// receiver's UBX-NAV-PVT, its UTC epoch put on the board's clock
+    /// through the host's UTC clock (keep it synchronised: NTP).
+    #[arg(long, requires = "port", value_name = "FILE|PORT")]
+    pub gnss: Option<String>,
+    /// The live receiver's baud rate (`--gnss PORT`; a USB receiver
+    /// ignores it).
+    #[arg(long, default_value_t = 38_400)]
+    pub gnss_baud: u32,
     /// Send each fix this long after its time of validity (a receiver's
     /// latency), ms.
     #[arg(long, default_value_t = 150.0)]
@@ -115,7 +122,8 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
         .map(|p| super::read_recording(p))
         .transpose()?;
     let mut relay = match &a.gnss {
-        Some(p) => {
+        Some(g) if std::path::Path::new(g).is_file() => {
+            let p = std::path::Path::new(g);
             let text =
                 std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
             let rows = recording::moving::parse_gnss(&text, p).map_err(|e| anyhow!("{e}"))?;
@@ -123,13 +131,17 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
                 .as_ref()
                 .and_then(|r| r.imu.first())
                 .map(|r| (r.t_s * 1e6).round() as i64);
-            Some(rins::link::Relay::new(
+            Relay::File(rins::link::Relay::new(
                 rows,
                 t0,
                 (a.latency_ms * 1e3) as u64,
             ))
         }
-        None => None,
+        Some(port) => Relay::Live(rins::link::LiveRelay::spawn(rins::link::open(
+            port,
+            a.gnss_baud,
+        )?)),
+        None => Relay::None,
     };
     let mut frames: Vec<protocol::Telemetry> = vec![];
     if let Some(rec) = &like {
@@ -157,17 +169,50 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
     let start = std::time::Instant::now();
     while start.elapsed().as_secs_f64() < a.duration_s && !s.closed {
         for t in s.pump()? {
-            if let Some(r) = relay.as_mut() {
-                for c in r.due(&t) {
-                    s.send(&c)?;
-                }
+            for c in relay.due(&t) {
+                s.send(&c)?;
             }
         }
         pb.set_position((start.elapsed().as_secs_f64() / a.duration_s * 1000.0) as u64);
     }
     pb.finish_and_clear();
-    if let Some(r) = &relay {
-        println!("relayed {} GNSS fixes ({} not sent)", r.sent, r.left());
-    }
+    relay.report();
     Ok(std::mem::take(&mut s.bytes))
+}
+
+/// Where the fixes relayed to the board come from.
+enum Relay {
+    None,
+    File(rins::link::Relay),
+    Live(rins::link::LiveRelay),
+}
+
+impl Relay {
+    fn due(&mut self, t: &protocol::Telemetry) -> Vec<protocol::Command> {
+        match self {
+            Self::None => vec![],
+            Self::File(r) => r.due(t),
+            Self::Live(r) => r.due(t),
+        }
+    }
+
+    fn report(&self) {
+        match self {
+            Self::None => {}
+            Self::File(r) => println!("relayed {} GNSS fixes ({} not sent)", r.sent, r.left()),
+            Self::Live(r) => {
+                let bad = r.bad_frames.load(std::sync::atomic::Ordering::Relaxed);
+                println!(
+                    "relayed {} GNSS fixes from the receiver; not relayed: {:?}; {bad} receiver frames with a bad checksum",
+                    r.sent, r.skipped
+                );
+                if r.skipped
+                    .iter()
+                    .any(|(w, _)| *w == rins::link::Skip::ClockMismatch)
+                {
+                    println!("  (the receiver's epochs and this host's UTC clock disagree by more than 2 s: synchronise the host's clock, NTP)");
+                }
+            }
+        }
+    }
 }
