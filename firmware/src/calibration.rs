@@ -210,3 +210,96 @@ pub fn refusal_status(e: &CalibError) -> CalStatus {
         CalibError::NonFinite => CalStatus::NonFinite,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::icm42688::Sample;
+    use core_nav::table::{q_s_b, TableAngle};
+    use nalgebra::UnitQuaternion;
+
+    /// 30 deg/s.
+    const RATE: f64 = core::f64::consts::FRAC_PI_6;
+    const BIAS: [f64; 3] = [0.01, -0.02, 0.005];
+    const M_K: [f64; 3] = [1e-3, -2e-3, 5e-3];
+
+    /// A noise-free navigation input at `t_us`: the table at `theta`
+    /// turning at `rate` on a level base facing north at `site`, the gyros
+    /// reading `(I + M) w + b` (`M`'s only column the table axis's).
+    fn input(site: &Site, t_us: u64, theta: f64, rate: f64, settled: Option<u64>) -> NavInput {
+        let c_s_b = UnitQuaternion::from_quaternion(q_s_b(Axis::Z, theta)).to_rotation_matrix();
+        let (w, f) = site.ideal_imu(&c_s_b.matrix().transpose(), &(Vector3::z() * rate));
+        let g = w + Vector3::from(BIAS) + Vector3::from(M_K) * w.z;
+        let f32x3 = |v: Vector3<f64>| [v.x as f32, v.y as f32, v.z as f32];
+        NavInput {
+            t_us,
+            mean: Sample {
+                gyro_radps: f32x3(g),
+                accel_mps2: f32x3(f),
+                temp_c: 25.0,
+            },
+            angle: TableAngle::from_rad_f64(theta),
+            table_rate_radps: rate as f32,
+            encoder_seen: true,
+            table_moved: rate != 0.0,
+            rate_ok_since: settled,
+            stopped: None,
+        }
+    }
+
+    #[test]
+    fn a_noise_free_power_up_recovers_the_bias_and_the_table_axis_column() {
+        let site = Site::new(-33.9, 40.0);
+        let base = Euler::default();
+        let mut cal = PowerUp::new(CalConfig::default(), 0);
+        let mut t = 0u64;
+        // Still until the still phase asks for the table.
+        loop {
+            t += 10_000;
+            match cal.input(&input(&site, t, 0.0, 0.0, None), &site, &base, RATE) {
+                CalStep::Continue => {}
+                CalStep::StartTable => break,
+                other => panic!("{other:?}"),
+            }
+        }
+        assert!((59_000_000..=61_000_000).contains(&t), "{t}");
+        // The table at its rate at once, settled from the start.
+        let t0 = t;
+        let result = loop {
+            t += 10_000;
+            let theta = RATE * (t - t0) as f64 * 1e-6;
+            match cal.input(&input(&site, t, theta, RATE, Some(t0)), &site, &base, RATE) {
+                CalStep::Continue => {}
+                CalStep::Accepted(c) => break c,
+                other => panic!("{other:?}"),
+            }
+            assert!(t - t0 < 100_000_000, "no result after 100 s");
+        };
+        // The inputs are f32 (7 significant digits of a 0.52 rad/s rate:
+        // 3e-8 rad/s), the solver f64: 1e-6 leaves a factor 30.
+        for i in 0..3 {
+            assert!((result.bias[i] - BIAS[i]).abs() < 1e-6, "{:?}", result.bias);
+            assert!((result.m_k[i] - M_K[i]).abs() < 1e-5, "{:?}", result.m_k);
+        }
+    }
+
+    #[test]
+    fn a_bump_while_still_restarts_the_still_phase() {
+        let site = Site::new(45.0, 0.0);
+        let base = Euler::default();
+        let mut cal = PowerUp::new(CalConfig::default(), 0);
+        for k in 1..=3000u64 {
+            cal.input(
+                &input(&site, k * 10_000, 0.0, 0.0, None),
+                &site,
+                &base,
+                RATE,
+            );
+        }
+        // The table moved at 30 s: the still phase starts again there.
+        let mut bumped = input(&site, 30_010_000, 0.0, 0.0, None);
+        bumped.table_moved = true;
+        cal.input(&bumped, &site, &base, RATE);
+        assert_eq!(cal.phase(), CalPhase::Static(30_010_000));
+    }
+}

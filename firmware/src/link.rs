@@ -183,3 +183,117 @@ impl Link {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tasks::FACTORY;
+
+    fn frame(c: &Command, seq: u16) -> Vec<u8> {
+        let mut f = [0u8; MAX_FRAME];
+        let n = c.to_frame(seq, &mut f).unwrap();
+        f[..n].to_vec()
+    }
+
+    /// Feeds `bytes` one at a time; returns the routes and the acks.
+    fn feed(l: &mut Link, bytes: &[u8]) -> (Vec<Route>, Vec<Telemetry>) {
+        let (mut routes, mut acks) = (vec![], vec![]);
+        for b in bytes {
+            l.rx(*b, &mut |r| routes.push(r), &mut |t| acks.push(t));
+        }
+        (routes, acks)
+    }
+
+    #[test]
+    fn a_site_sent_byte_by_byte_changes_the_configuration_and_is_acknowledged() {
+        let mut l = Link::new(FACTORY, Limits::default());
+        let c = Command::SetSite {
+            lat_e7: -339_000_000,
+            height_mm: 40_000,
+        };
+        let (routes, acks) = feed(&mut l, &frame(&c, 7));
+        assert_eq!(l.config.lat_e7, -339_000_000);
+        assert!(matches!(routes.as_slice(), [Route::Config(cfg)] if cfg.height_mm == 40_000));
+        assert_eq!(
+            acks,
+            [Telemetry::Ack {
+                seq: 7,
+                status: Status::Accepted
+            }]
+        );
+    }
+
+    #[test]
+    fn out_of_range_and_malformed_commands_are_answered_with_the_reason() {
+        let mut l = Link::new(FACTORY, Limits::default());
+        // 500 deg/s is beyond the table's 200 deg/s.
+        let fast = Command::SetScheme {
+            kind: SchemeKind::Continuous,
+            rate_dps: 500.0,
+            count: 0,
+        };
+        let (routes, acks) = feed(&mut l, &frame(&fast, 1));
+        assert!(routes.is_empty());
+        assert_eq!(
+            acks,
+            [Telemetry::Ack {
+                seq: 1,
+                status: Status::BadRate
+            }]
+        );
+        assert_eq!(l.config, FACTORY);
+        // A frame whose CRC is fine but whose type is not a command.
+        let mut p = [0u8; MAX_PAYLOAD];
+        let n = Telemetry::Ack {
+            seq: 0,
+            status: Status::Accepted,
+        }
+        .encode(9, &mut p)
+        .unwrap();
+        let mut f = [0u8; MAX_FRAME];
+        let m = protocol::frame(&p[..n], &mut f).unwrap();
+        let (_, acks) = feed(&mut l, &f[..m]);
+        assert!(matches!(
+            acks.as_slice(),
+            [Telemetry::Ack {
+                status: Status::Malformed,
+                ..
+            }]
+        ));
+    }
+
+    #[test]
+    fn fixes_and_starts_go_to_navigation_which_answers_them() {
+        let mut l = Link::new(FACTORY, Limits::default());
+        let (routes, acks) = feed(&mut l, &frame(&Command::Start {}, 3));
+        assert_eq!(routes, [Route::Nav(NavCmd::Start { seq: 3 })]);
+        assert!(acks.is_empty());
+    }
+
+    #[test]
+    fn a_frame_without_room_is_dropped_whole_and_its_number_stays_used() {
+        let mut l = Link::new(FACTORY, Limits::default());
+        let t = l.config_report();
+        let mut sent = vec![];
+        l.send(&t, &mut |b| {
+            sent.push(b.to_vec());
+            true
+        });
+        l.send(&t, &mut |_| false);
+        l.send(&t, &mut |b| {
+            sent.push(b.to_vec());
+            true
+        });
+        assert_eq!(l.tx_dropped, 1);
+        // The host's decoder sees sequence numbers 0 and 2: one frame lost.
+        let mut d = protocol::Decoder::default();
+        let mut out = [0u8; MAX_PAYLOAD + 2];
+        let mut seqs = vec![];
+        for b in sent.concat() {
+            if let Some(n) = d.push(b, &mut out) {
+                seqs.push(Telemetry::decode(&out[..n]).unwrap().0);
+            }
+        }
+        assert_eq!(seqs, [0, 2]);
+    }
+}

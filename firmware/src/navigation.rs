@@ -590,3 +590,123 @@ impl<'a> Navigator<'a> {
         self.last.map(|x| x.angle).unwrap_or_default()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tuning::ICM42688_FILTER;
+
+    /// A navigator whose large state is leaked (a static on the board).
+    fn navigator(aided: bool) -> Navigator<'static> {
+        let cfg = NavConfig {
+            lat_deg: 45.0,
+            aided: aided.then_some(BoardAided {
+                origin: OriginE7 {
+                    lat_e7: 450_000_000,
+                    lon_e7: 0,
+                    height_mm: 0,
+                },
+                cfg: ICM42688_FILTER,
+            }),
+            ..NavConfig::default()
+        };
+        let mem = NavMemory {
+            ws: Box::leak(Box::new(Workspace::ZERO)),
+            aided: Box::leak(Box::new(core::mem::MaybeUninit::uninit())),
+            cal: Box::leak(Box::new(core::mem::MaybeUninit::uninit())),
+        };
+        Navigator::new(cfg, 0, None, ICM42688_FILTER, mem)
+    }
+
+    /// A still, level sensor's mean sample at `t_us`.
+    fn still(t_us: u64) -> NavInput {
+        NavInput {
+            t_us,
+            mean: Sample {
+                gyro_radps: [0.0; 3],
+                accel_mps2: [0.0, 0.0, -9.806],
+                temp_c: 25.0,
+            },
+            angle: TableAngle::default(),
+            table_rate_radps: 0.0,
+            encoder_seen: true,
+            table_moved: false,
+            rate_ok_since: None,
+            stopped: None,
+        }
+    }
+
+    fn fix() -> GnssFix {
+        GnssFix {
+            lat_e7: 450_000_000,
+            lon_e7: 0,
+            height_mm: 0,
+            v_n_mmps: [0; 3],
+            sigma_h_mm: 1_000,
+            sigma_v_mm: 2_000,
+            sigma_vel_mmps: 100,
+        }
+    }
+
+    /// Sends a fix command; returns its Ack's status.
+    fn send_fix(n: &mut Navigator<'_>, t_valid_us: u64) -> Status {
+        let mut acks = vec![];
+        let c = NavCmd::Fix {
+            seq: 1,
+            t_valid_us,
+            fix: fix(),
+        };
+        n.command(
+            c,
+            &mut |o| {
+                if let Outbound::Telemetry(Telemetry::Ack { status, .. }) = o {
+                    acks.push(status);
+                }
+            },
+            &mut |_| {},
+        );
+        acks[0]
+    }
+
+    fn run(n: &mut Navigator<'_>, from_us: u64, to_us: u64) {
+        let mut t = from_us;
+        while t <= to_us {
+            n.input(&still(t), &mut |_| {}, &mut |_| {});
+            t += 10_000;
+        }
+    }
+
+    #[test]
+    fn a_fix_before_aided_navigation_is_refused_with_the_reason() {
+        let mut n = navigator(false);
+        run(&mut n, 10_000, 100_000);
+        assert_eq!(send_fix(&mut n, 90_000), Status::NotAided);
+    }
+
+    #[test]
+    fn a_fix_waits_for_its_horizon_and_is_applied_at_its_epoch() {
+        let mut n = navigator(true);
+        run(&mut n, 10_000, 1_000_000);
+        assert_eq!(n.mode(), Mode::Navigating);
+        // Valid at 0.95 s, sent at 1.0 s: held until 0.95 + 0.4 s.
+        assert_eq!(send_fix(&mut n, 950_000), Status::Accepted);
+        run(&mut n, 1_010_000, 1_340_000);
+        assert_eq!(n.aided().unwrap().counts.fixes_used, 0);
+        run(&mut n, 1_350_000, 1_400_000);
+        assert_eq!(n.aided().unwrap().counts.fixes_used, 1);
+        assert_eq!(n.fixes_late, 0);
+    }
+
+    #[test]
+    fn a_fix_from_the_future_is_refused_and_a_stale_one_counted_late() {
+        let mut n = navigator(true);
+        run(&mut n, 10_000, 1_000_000);
+        // Valid beyond the next navigation period: a wrong clock.
+        assert_eq!(send_fix(&mut n, 1_100_000), Status::BadFix);
+        // Valid 0.5 s ago, past the 0.4 s horizon: applied, counted late.
+        assert_eq!(send_fix(&mut n, 500_000), Status::Accepted);
+        assert_eq!(n.fixes_late, 1);
+        run(&mut n, 1_010_000, 1_020_000);
+        assert_eq!(n.aided().unwrap().counts.fixes_used, 1);
+    }
+}

@@ -309,3 +309,122 @@ impl Journal {
         self.sector().slots().saturating_sub(self.next_slot)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::tasks::FACTORY;
+
+    /// Two small sectors (2 KiB each) of NOR flash: programs only clear
+    /// bits of erased words, erases set them, every erase counted.
+    struct Nor {
+        mem: Vec<u8>,
+        erases: u32,
+    }
+
+    const SECTORS: [Sector; 2] = [
+        Sector {
+            number: 1,
+            base: 0x1000,
+            len: 2048,
+        },
+        Sector {
+            number: 2,
+            base: 0x1800,
+            len: 2048,
+        },
+    ];
+
+    impl Nor {
+        fn new() -> Self {
+            Self {
+                mem: vec![0xFF; 4096],
+                erases: 0,
+            }
+        }
+        fn at(addr: u32) -> usize {
+            (addr - 0x1000) as usize
+        }
+    }
+
+    impl Flash for Nor {
+        fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), FlashError> {
+            let i = Self::at(addr);
+            buf.copy_from_slice(&self.mem[i..i + buf.len()]);
+            Ok(())
+        }
+        fn program_word(&mut self, addr: u32, word: u32) -> Result<(), FlashError> {
+            let i = Self::at(addr);
+            if self.mem[i..i + 4] != [0xFF; 4] {
+                return Err(FlashError::Controller(0x80)); // PGSERR
+            }
+            self.mem[i..i + 4].copy_from_slice(&word.to_le_bytes());
+            Ok(())
+        }
+        fn erase(&mut self, s: Sector) -> Result<(), FlashError> {
+            let i = Self::at(s.base);
+            self.mem[i..i + s.len as usize].fill(0xFF);
+            self.erases += 1;
+            Ok(())
+        }
+    }
+
+    fn site(lat_e7: i32) -> protocol::record::BoardConfig {
+        protocol::record::BoardConfig { lat_e7, ..FACTORY }
+    }
+
+    fn save(j: &mut Journal, f: &mut Nor, lat_e7: i32) {
+        j.write(site(lat_e7), None).unwrap();
+        while j.step(f).unwrap() {}
+    }
+
+    #[test]
+    fn a_blank_journal_has_no_record_and_erases_nothing() {
+        let mut f = Nor::new();
+        let j = Journal::open(&mut f, SECTORS).unwrap();
+        assert!(j.current.is_none());
+        assert_eq!(f.erases, 0);
+    }
+
+    #[test]
+    fn a_record_written_word_by_word_is_found_at_the_next_boot() {
+        let mut f = Nor::new();
+        let mut j = Journal::open(&mut f, SECTORS).unwrap();
+        save(&mut j, &mut f, 1);
+        save(&mut j, &mut f, -339_000_000);
+        let again = Journal::open(&mut f, SECTORS).unwrap();
+        let r = again.current.unwrap();
+        assert_eq!((r.seq, r.config.lat_e7), (2, -339_000_000));
+        assert_eq!(f.erases, 0, "run-time writes never erase");
+    }
+
+    #[test]
+    fn a_nearly_full_sector_moves_on_at_boot_with_its_record() {
+        let mut f = Nor::new();
+        let mut j = Journal::open(&mut f, SECTORS).unwrap();
+        let slots = SECTORS[0].len / RECORD_LEN as u32;
+        let mut n = 0;
+        while j.free_slots() >= LOW_WATER {
+            n += 1;
+            save(&mut j, &mut f, n);
+        }
+        assert_eq!(f.erases, 0);
+        let j = Journal::open(&mut f, SECTORS).unwrap();
+        // The other sector erased, the record copied, the full one erased.
+        assert_eq!((j.erases, f.erases), (2, 2));
+        assert_eq!(j.current.unwrap().config.lat_e7, n);
+        assert_eq!(j.free_slots(), slots - 1);
+    }
+
+    #[test]
+    fn a_full_sector_refuses_until_the_next_boot() {
+        let mut f = Nor::new();
+        let mut j = Journal::open(&mut f, SECTORS).unwrap();
+        let slots = SECTORS[0].len / RECORD_LEN as u32;
+        for i in 0..slots {
+            save(&mut j, &mut f, i as i32);
+        }
+        assert_eq!(j.write(site(0), None), Err(FlashError::Full));
+        assert_eq!(f.erases, 0);
+    }
+}
