@@ -216,7 +216,11 @@ pub struct AidedNav<T: Real> {
     still: bool,
     /// A detector evaluation is due (deferred past a step that took a fix).
     zupt_due: bool,
-    pending: Option<(GnssFix, Option<u64>)>,
+    /// The fix handed over, and its time of validity when it has one
+    /// (two fields, not one `Option` of a pair: a pair's `None` is not all
+    /// zeros, and a board's blank static belongs in `.bss`).
+    pending: Option<GnssFix>,
+    pending_at: Option<u64>,
     /// The last [`HISTORY`] states (a ring, by sample).
     past: [Past<T>; HISTORY],
     past_head: usize,
@@ -233,6 +237,83 @@ struct Past<T: Real> {
     v_n: Vector3<T>,
     c_b_n: Matrix3<T>,
     w_ib_b: Vector3<T>,
+}
+
+impl Past<f32> {
+    const BLANK: Self = Self {
+        t_us: 0,
+        p_n: crate::real::zeros_f32(),
+        v_n: crate::real::zeros_f32(),
+        c_b_n: crate::real::zeros_f32(),
+        w_ib_b: crate::real::zeros_f32(),
+    };
+}
+
+impl AidedConfig {
+    /// All zeros (a blank navigator's, until its restart).
+    pub const ZERO: Self = Self {
+        eskf: EskfConfig {
+            gyro_arw: 0.0,
+            accel_vrw: 0.0,
+            gyro_bias_init_sigma: 0.0,
+            gyro_bias_sigma: 0.0,
+            gyro_bias_tau_s: 0.0,
+            accel_bias_init_sigma: 0.0,
+            accel_bias_sigma: 0.0,
+            accel_bias_tau_s: 0.0,
+            gate_sigma: 0.0,
+            gyro_scale_sigma: 0.0,
+            gyro_misalignment_sigma: 0.0,
+            gyro_scale_rw: 0.0,
+            accel_scale_sigma: 0.0,
+            accel_misalignment_sigma: 0.0,
+            gnss_corr_sigma_m: [0.0; 2],
+            gnss_corr_tau_s: 0.0,
+        },
+        initial: InitialSigma {
+            position_m: 0.0,
+            velocity_mps: 0.0,
+            level_rad: 0.0,
+            heading_rad: 0.0,
+        },
+        axis: Axis::X,
+        antenna_b_m: [0.0; 3],
+        zupt: false,
+    };
+}
+
+impl AidedNav<f32> {
+    /// All zeros in a `const`: a board's static, in `.bss` (no flash for
+    /// its initial value), started in place with [`Self::restart`] (never
+    /// a 12 KiB value on a stack). Not a navigator until then.
+    pub const BLANK: Self = Self {
+        nav: Strapdown::BLANK,
+        kf: Eskf::blank(AidedConfig::ZERO.eskf, 0),
+        cfg: AidedConfig::ZERO,
+        origin: OriginE7 {
+            lat_e7: 0,
+            lon_e7: 0,
+            height_mm: 0,
+        },
+        lever_b: crate::real::zeros_f32(),
+        window: [(0.0, crate::real::zeros_f32()); ZUPT_WINDOW],
+        head: 0,
+        filled: 0,
+        steps: 0,
+        still: false,
+        zupt_due: false,
+        pending: None,
+        pending_at: None,
+        past: [Past::BLANK; HISTORY],
+        past_head: 0,
+        counts: AidedCounts {
+            steps_refused: 0,
+            zupts: 0,
+            fixes_used: 0,
+            fixes_replaced: 0,
+            corrections_refused: 0,
+        },
+    };
 }
 
 impl<T: Real> Default for Past<T> {
@@ -292,6 +373,7 @@ impl<T: Real> AidedNav<T> {
             still: false,
             zupt_due: false,
             pending: None,
+            pending_at: None,
             past: [Past::default(); HISTORY],
             past_head: 0,
             counts: AidedCounts::default(),
@@ -316,6 +398,7 @@ impl<T: Real> AidedNav<T> {
             still: false,
             zupt_due: false,
             pending: None,
+            pending_at: None,
             past: [Past::default(); HISTORY],
             past_head: 0,
             counts: AidedCounts::default(),
@@ -352,6 +435,7 @@ impl<T: Real> AidedNav<T> {
         self.still = false;
         self.zupt_due = false;
         self.pending = None;
+        self.pending_at = None;
         self.past.fill(Past::default());
         self.past_head = 0;
         self.counts = AidedCounts::default();
@@ -371,7 +455,8 @@ impl<T: Real> AidedNav<T> {
     /// Hands a fix over; the next [`Self::step`] uses it as valid at that
     /// step.
     pub fn gnss(&mut self, fix: &GnssFix) {
-        if self.pending.replace((*fix, None)).is_some() {
+        self.pending_at = None;
+        if self.pending.replace(*fix).is_some() {
             self.counts.fixes_replaced = self.counts.fixes_replaced.saturating_add(1);
         }
     }
@@ -401,7 +486,8 @@ impl<T: Real> AidedNav<T> {
         if t_valid_us + self.half_period_us() < oldest {
             return Err(FixAge::TooOld);
         }
-        if self.pending.replace((*fix, Some(t_valid_us))).is_some() {
+        self.pending_at = Some(t_valid_us);
+        if self.pending.replace(*fix).is_some() {
             self.counts.fixes_replaced = self.counts.fixes_replaced.saturating_add(1);
         }
         Ok(())
@@ -539,7 +625,8 @@ impl<T: Real> AidedNav<T> {
 
         let mut out = AidedStep::default();
         let mut corrected = false;
-        if let Some((fix, at)) = self.pending.take() {
+        if let Some(fix) = self.pending.take() {
+            let at = self.pending_at.take();
             let then = at.and_then(|t| self.past_at(t)).unwrap_or(here);
             out.fix = Some(self.use_fix(&fix, &then, ws.as_deref_mut()));
             corrected = true;

@@ -153,6 +153,24 @@ pub struct LocalEarth<T: Real> {
     pub height0_m: T,
 }
 
+impl LocalEarth<f32> {
+    /// All zeros in a `const` (a board's static in `.bss`, replaced
+    /// before use: no point of the earth until then).
+    pub const BLANK: Self = Self {
+        origin: GeoPoint {
+            lat_rad: 0.0,
+            lon_rad: 0.0,
+            height_m: 0.0,
+        },
+        sin_lat0: 0.0,
+        cos_lat0: 0.0,
+        rm_h0: 0.0,
+        rn_h0_cos: 0.0,
+        gravity_scale: 0.0,
+        height0_m: 0.0,
+    };
+}
+
 /// The earth quantities at one point, m, rad, m/s^2, rad/s.
 #[derive(Clone, Copy, Debug)]
 pub struct EarthAt<T: Real> {

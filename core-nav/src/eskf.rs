@@ -122,6 +122,28 @@ impl<T: Real> Default for Workspace<T> {
     }
 }
 
+impl Eskf<f32> {
+    /// A filter of zeros with `cfg` and `batch`, in a `const` (a board's
+    /// static, reset in place with [`Self::reset`] before use).
+    pub const fn blank(cfg: EskfConfig, batch: u32) -> Self {
+        // (The caller's zeros keep the static in `.bss`.)
+        Self {
+            p: crate::real::zeros_f32(),
+            dx: crate::real::zeros_f32(),
+            bias_g: crate::real::zeros_f32(),
+            bias_a: crate::real::zeros_f32(),
+            gyro_m: crate::real::zeros_f32(),
+            accel_m: crate::real::zeros_f32(),
+            gnss_bias: crate::real::zeros_f32(),
+            cfg,
+            pending: Pending::BLANK,
+            batch,
+            rejected: 0,
+            refused: 0,
+        }
+    }
+}
+
 impl Workspace<f32> {
     /// Zeros, for a static.
     pub const ZERO: Self = Self {
@@ -803,6 +825,19 @@ struct Pending<T: Real> {
     cf: SMatrix<T, 3, 9>,
     dt: T,
     n: u32,
+}
+
+impl Pending<f32> {
+    const BLANK: Self = Self {
+        c_s_n: crate::real::zeros_f32(),
+        f_n: crate::real::zeros_f32(),
+        w_ie: crate::real::zeros_f32(),
+        w_en: crate::real::zeros_f32(),
+        cw: crate::real::zeros_f32(),
+        cf: crate::real::zeros_f32(),
+        dt: 0.0,
+        n: 0,
+    };
 }
 
 impl<T: Real> Default for Pending<T> {

@@ -242,6 +242,12 @@ pub fn wrap_pi<T: Real>(x: T) -> T {
     y
 }
 
+/// An f32 matrix of zeros in a `const` (a board's static built at compile
+/// time, never on a stack).
+pub const fn zeros_f32<const R: usize, const C: usize>() -> nalgebra::SMatrix<f32, R, C> {
+    nalgebra::SMatrix::from_array_storage(nalgebra::ArrayStorage([[0.0; R]; C]))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -146,6 +146,32 @@ pub struct Strapdown<T: Real> {
     steps: u64,
 }
 
+impl Strapdown<f32> {
+    /// All zeros in a `const` (a board's static in `.bss`, replaced
+    /// before use: not a mechanization until then).
+    pub const BLANK: Self = Self {
+        earth: LocalEarth::<f32>::BLANK,
+        cfg: StrapdownConfig {
+            max_dt_us: 0,
+            vertical: VerticalChannel::Free,
+            gravity_mps2: None,
+        },
+        state: NavState {
+            t_us: 0,
+            q_s_n: Quaternion::from_vector(crate::real::zeros_f32::<4, 1>()),
+            v_n: crate::real::zeros_f32(),
+            p_n: crate::real::zeros_f32(),
+        },
+        q_comp: Quaternion::from_vector(crate::real::zeros_f32::<4, 1>()),
+        w_prev: crate::real::zeros_f32(),
+        f_n_prev: crate::real::zeros_f32(),
+        w_prev2: None,
+        dv_prev: crate::real::zeros_f32(),
+        dt_cache: (0, 0.0, 0.0),
+        steps: 0,
+    };
+}
+
 impl<T: Real> Strapdown<T> {
     /// Starts navigation at the first sample `first` from a known state:
     /// position `origin` (also the reference point of `p_n`), velocity `v_n`

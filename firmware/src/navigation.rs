@@ -162,20 +162,11 @@ enum Stage {
 pub struct NavMemory<'a> {
     /// The filter's workspace.
     pub ws: &'a mut Workspace<f32>,
-    /// Where the aided navigator is built (12 KiB).
-    pub aided: &'a mut core::mem::MaybeUninit<AidedNav<f32>>,
+    /// The aided navigator (12 KiB, [`AidedNav::BLANK`] until aided
+    /// navigation starts it in place).
+    pub aided: &'a mut AidedNav<f32>,
     /// Where the calibration's sums are built (4 KiB).
     pub cal: &'a mut core::mem::MaybeUninit<PowerUp>,
-}
-
-/// Builds the aided navigator in its static, in a frame of its own (its
-/// temporaries gone before the rest of the boot's).
-#[inline(never)]
-fn place_aided(
-    slot: &mut core::mem::MaybeUninit<AidedNav<f32>>,
-    filter: AidedConfig,
-) -> &mut AidedNav<f32> {
-    slot.write(AidedNav::placeholder(filter))
 }
 
 /// Builds the calibration's sums in their static, in a frame of their own.
@@ -217,13 +208,13 @@ fn f32x3(v: &Vector3<f64>) -> [f32; 3] {
 
 impl<'a> Navigator<'a> {
     /// Navigation at power-up (`t_us`), with the calibration found in flash
-    /// and the IMU's filter (the aided navigator is made here, once, and
-    /// restarted in place when aided navigation starts).
+    /// and its large state in `mem` (the aided navigator is restarted in
+    /// place, with the configuration's filter, when aided navigation
+    /// starts).
     pub fn new(
         cfg: NavConfig,
         t_us: u64,
         stored: Option<StoredCalibration>,
-        filter: AidedConfig,
         mem: NavMemory<'a>,
     ) -> Self {
         let previous = stored.map(|s| GyroCalibration {
@@ -237,7 +228,7 @@ impl<'a> Navigator<'a> {
             mode: Mode::CalStatic(t_us),
             stage: Stage::Cal,
             cal: place_cal(mem.cal, cfg.cal, t_us),
-            aided: place_aided(mem.aided, filter),
+            aided: mem.aided,
             ws: mem.ws,
             calibration: None,
             previous,
@@ -612,10 +603,10 @@ mod tests {
         };
         let mem = NavMemory {
             ws: Box::leak(Box::new(Workspace::ZERO)),
-            aided: Box::leak(Box::new(core::mem::MaybeUninit::uninit())),
+            aided: Box::leak(Box::new(AidedNav::BLANK)),
             cal: Box::leak(Box::new(core::mem::MaybeUninit::uninit())),
         };
-        Navigator::new(cfg, 0, None, ICM42688_FILTER, mem)
+        Navigator::new(cfg, 0, None, mem)
     }
 
     /// A still, level sensor's mean sample at `t_us`.
@@ -673,6 +664,53 @@ mod tests {
         while t <= to_us {
             n.input(&still(t), &mut |_| {}, &mut |_| {});
             t += 10_000;
+        }
+    }
+
+    #[test]
+    fn the_blank_static_restarted_in_place_navigates_as_a_new_navigator() {
+        // The board's aided navigator is `AidedNav::BLANK` (zeros, in
+        // .bss) restarted in place; the host's is `AidedNav::new`. Over
+        // 5 s of a turning table with a fix every second, bit for bit.
+        let origin = OriginE7 {
+            lat_e7: -339_000_000,
+            lon_e7: 1_512_000_000,
+            height_mm: 40_000,
+        };
+        let q = Quaternion::new(1.0f32, 0.0, 0.0, 0.0);
+        let sample = |k: u64| ImuSample {
+            t_us: k * 10_000,
+            w_is_s: Vector3::new(1e-4, -2e-4, 0.5f32),
+            f_s: Vector3::new(0.01, -0.02, -9.79f32),
+        };
+        let angle = |k: u64| TableAngle::from_rad_f64(0.5 * k as f64 * 0.01);
+        let cfg = StrapdownConfig::default();
+        let mut a = AidedNav::BLANK;
+        a.restart(cfg, origin, &q, &angle(0), &sample(0), ICM42688_FILTER)
+            .unwrap();
+        let mut b = AidedNav::new(cfg, origin, &q, &angle(0), &sample(0), ICM42688_FILTER).unwrap();
+        let mut ws = Workspace::ZERO;
+        for k in 1..=500u64 {
+            if k % 100 == 0 {
+                a.gnss_at(&fix_at(origin), k * 10_000 - 5_000).unwrap();
+                b.gnss_at(&fix_at(origin), k * 10_000 - 5_000).unwrap();
+            }
+            let ra = a.step_in(&sample(k), &angle(k), 0.5, &mut ws).unwrap();
+            let rb = b.step_in(&sample(k), &angle(k), 0.5, &mut ws).unwrap();
+            assert_eq!(format!("{ra:?}"), format!("{rb:?}"));
+        }
+        let (sa, sb) = (a.nav().state(), b.nav().state());
+        assert_eq!(format!("{sa:?}"), format!("{sb:?}"));
+        assert_eq!(a.counts.fixes_used, 5);
+        assert_eq!(a.kf.p, b.kf.p);
+    }
+
+    fn fix_at(o: OriginE7) -> GnssFix {
+        GnssFix {
+            lat_e7: o.lat_e7,
+            lon_e7: o.lon_e7,
+            height_mm: o.height_mm,
+            ..fix()
         }
     }
 

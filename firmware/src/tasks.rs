@@ -181,7 +181,7 @@ pub fn nav_config(c: &BoardConfig, t: &Tuning) -> NavConfig {
 /// (a static on the board, never on a stack).
 pub struct Queues {
     ws: core_nav::eskf::Workspace<f32>,
-    aided: core::mem::MaybeUninit<core_nav::aided::AidedNav<f32>>,
+    aided: core_nav::aided::AidedNav<f32>,
     cal: core::mem::MaybeUninit<crate::calibration::PowerUp>,
     nav_in: Queue<NavInput, NAV_Q>,
     nav_ctl: Queue<ControlCmd, CMD_Q>,
@@ -204,7 +204,7 @@ impl Queues {
     pub const fn new() -> Self {
         Self {
             ws: core_nav::eskf::Workspace::ZERO,
-            aided: core::mem::MaybeUninit::uninit(),
+            aided: core_nav::aided::AidedNav::BLANK,
             cal: core::mem::MaybeUninit::uninit(),
             nav_in: Queue::new(),
             nav_ctl: Queue::new(),
@@ -314,7 +314,6 @@ impl<'a> Program<'a> {
             nav_config(&config, &t),
             boot.now_us,
             stored.and_then(|r| r.calibration),
-            t.filter,
             mem,
         );
         let mut link = LinkTask {
