@@ -333,6 +333,7 @@ impl<'a> Program<'a> {
             reset: boot.reset,
             tuning: t,
             boot_reports: [None; 3],
+            counted: [(0, None); COUNTED.len()],
         };
         link.boot_reports = [
             Some(link.link.config_report()),
@@ -520,6 +521,21 @@ pub struct LinkTask<'a> {
     reset: ResetCause,
     tuning: Tuning,
     boot_reports: [Option<Telemetry>; 3],
+    /// What the counters below were when each was last reported.
+    counted: [(u32, Option<u64>); COUNTED.len()],
+}
+
+/// The counters the tasks keep (no task may wait to send a report) and
+/// the faults the link reports them as.
+const COUNTED: [Fault; 3] = [Fault::TickOverrun, Fault::RxLost, Fault::TelemetryOverflow];
+
+fn counter(stats: &Stats, f: Fault) -> u32 {
+    let a = match f {
+        Fault::TickOverrun => &stats.tick_overruns,
+        Fault::RxLost => &stats.rx_lost,
+        _ => &stats.out_lost,
+    };
+    a.load(Ordering::Relaxed)
 }
 
 impl LinkTask<'_> {
@@ -556,6 +572,7 @@ impl LinkTask<'_> {
             self.fault(mcu_us, Fault::FlashError);
         }
         o.motor_off = self.supervise(mcu_us, stats);
+        self.report_counted(mcu_us, stats);
         if self
             .last_health
             .is_none_or(|t| mcu_us.saturating_sub(t) >= HEALTH_EVERY_US)
@@ -628,6 +645,27 @@ impl LinkTask<'_> {
     ) {
         if self.journal.write(self.link.config, cal).is_err() {
             self.fault(mcu_us, Fault::FlashError);
+        }
+    }
+
+    /// The tasks' overruns and losses as faults: when a counter has grown,
+    /// at most once per [`crate::faults::REPORT_EVERY_US`] each, with the
+    /// total so far.
+    fn report_counted(&mut self, mcu_us: u64, stats: &Stats) {
+        for (f, (seen, last)) in COUNTED.iter().zip(self.counted.iter_mut()) {
+            let now = counter(stats, *f);
+            let due =
+                last.is_none_or(|t| mcu_us.saturating_sub(t) >= crate::faults::REPORT_EVERY_US);
+            if now > *seen && due {
+                *seen = now;
+                *last = Some(mcu_us);
+                let t = Telemetry::Fault {
+                    t_us: mcu_us,
+                    fault: *f,
+                    count: now,
+                };
+                send(&mut self.link, &mut self.tx, &t);
+            }
         }
     }
 

@@ -163,3 +163,48 @@ fn the_boards_filter_is_the_icm42688_profiles() {
     let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o);
     assert_eq!(firmware::tuning::ICM42688_FILTER, want);
 }
+
+/// The faults the board sent (decoded from its bytes).
+fn faults_sent(bytes: &[u8]) -> Vec<(protocol::Fault, u32)> {
+    let mut d = protocol::Decoder::default();
+    let mut out = [0u8; protocol::MAX_PAYLOAD + 2];
+    let mut got = vec![];
+    for b in bytes {
+        if let Some(n) = d.push(*b, &mut out) {
+            if let Ok((_, protocol::Telemetry::Fault { fault, count, .. })) =
+                protocol::Telemetry::decode(&out[..n])
+            {
+                got.push((fault, count));
+            }
+        }
+    }
+    got
+}
+
+#[test]
+fn overruns_and_losses_are_reported_as_faults_at_a_bounded_rate() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let t = firmware::tuning::board();
+    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
+    b.idle(20_000);
+    assert!(faults_sent(&b.sent).is_empty());
+    // Three tick overruns and a lost byte: reported at the next link run,
+    // with their totals.
+    b.stats.tick_overruns.fetch_add(3, Relaxed);
+    b.stats.rx_lost.fetch_add(1, Relaxed);
+    b.idle(20_000);
+    let f = faults_sent(&b.sent);
+    assert!(f.contains(&(protocol::Fault::TickOverrun, 3)), "{f:?}");
+    assert!(f.contains(&(protocol::Fault::RxLost, 1)), "{f:?}");
+    // More overruns every 10 ms for half a second: no new report within a
+    // second of the last; then one, with the total.
+    for _ in 0..50 {
+        b.stats.tick_overruns.fetch_add(1, Relaxed);
+        b.idle(10_000);
+    }
+    assert_eq!(faults_sent(&b.sent).len(), 2);
+    b.idle(600_000);
+    let f = faults_sent(&b.sent);
+    assert_eq!(f.len(), 3);
+    assert_eq!(f[2], (protocol::Fault::TickOverrun, 53));
+}
