@@ -283,9 +283,10 @@ impl AidedConfig {
 }
 
 impl AidedNav<f32> {
-    /// All zeros in a `const`: a board's static, in `.bss` (no flash for
-    /// its initial value), started in place with [`Self::restart`] (never
-    /// a 12 KiB value on a stack). Not a navigator until then.
+    /// A navigator not yet started: all zeros in a `const`, a board's
+    /// static in `.bss` (no flash for its initial value), started in place
+    /// with [`Self::restart`] (never a 12 KiB value on a stack). Not a
+    /// navigator until then.
     pub const BLANK: Self = Self {
         nav: Strapdown::BLANK,
         kf: Eskf::blank(AidedConfig::ZERO.eskf, 0),
@@ -378,31 +379,6 @@ impl<T: Real> AidedNav<T> {
             past_head: 0,
             counts: AidedCounts::default(),
         })
-    }
-
-    /// A navigator not yet started (a placeholder at the origin that cannot
-    /// fail): [`Self::restart`] starts it in place.
-    pub fn placeholder(cfg: AidedConfig) -> Self {
-        let mut kf = Eskf::new(cfg.eskf, &cfg.initial);
-        kf.batch = PREDICT_BATCH;
-        Self {
-            nav: Strapdown::placeholder(),
-            kf,
-            cfg,
-            origin: OriginE7::default(),
-            lever_b: Vector3::from(cfg.antenna_b_m).map(T::lit),
-            window: [(T::zero(), Vector3::zeros()); ZUPT_WINDOW],
-            head: 0,
-            filled: 0,
-            steps: 0,
-            still: false,
-            zupt_due: false,
-            pending: None,
-            pending_at: None,
-            past: [Past::default(); HISTORY],
-            past_head: 0,
-            counts: AidedCounts::default(),
-        }
     }
 
     /// Starts again in place, as [`Self::new`] would (on a board the

@@ -147,8 +147,9 @@ pub struct Strapdown<T: Real> {
 }
 
 impl Strapdown<f32> {
-    /// All zeros in a `const` (a board's static in `.bss`, replaced
-    /// before use: not a mechanization until then).
+    /// A mechanization not yet started: all zeros in a `const` (a board's
+    /// static in `.bss`, replaced before use: not a mechanization until
+    /// then).
     pub const BLANK: Self = Self {
         earth: LocalEarth::<f32>::BLANK,
         cfg: StrapdownConfig {
@@ -216,31 +217,6 @@ impl<T: Real> Strapdown<T> {
             dt_cache: (0, T::zero(), T::zero()),
             steps: 0,
         })
-    }
-
-    /// A mechanization at rest at the equator, level, heading north, at
-    /// time 0: a placeholder that cannot fail (a board keeps its navigator
-    /// in place and restarts it with [`Self::new`] when it starts).
-    pub fn placeholder() -> Self {
-        let cfg = StrapdownConfig::default();
-        let q_s_n = Quaternion::identity();
-        Self {
-            earth: LocalEarth::new(GeoPoint::from_deg(0.0, 0.0, 0.0), cfg.gravity_mps2),
-            cfg,
-            state: NavState {
-                t_us: 0,
-                q_s_n,
-                v_n: Vector3::zeros(),
-                p_n: Vector3::zeros(),
-            },
-            q_comp: Quaternion::new(T::zero(), T::zero(), T::zero(), T::zero()),
-            w_prev: Vector3::zeros(),
-            f_n_prev: Vector3::zeros(),
-            w_prev2: None,
-            dv_prev: Vector3::zeros(),
-            dt_cache: (0, T::zero(), T::zero()),
-            steps: 0,
-        }
     }
 
     /// The current state.

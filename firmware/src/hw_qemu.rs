@@ -41,19 +41,8 @@ pub const TIMER_HZ: u32 = 1_000_000_000;
 /// The 64-bit clock's counter at boot: 1.5 s below the u32 wrap, so every
 /// replay crosses it.
 pub const CLOCK_START: u32 = u32::MAX - 1_500_000;
-/// The journal's model: two 2 KiB sectors of RAM.
-pub const JOURNAL: [Sector; 2] = [
-    Sector {
-        number: 10,
-        base: 0,
-        len: 2048,
-    },
-    Sector {
-        number: 11,
-        base: 2048,
-        len: 2048,
-    },
-];
+/// The journal's model (the host twin's too): two 2 KiB sectors of RAM.
+pub const JOURNAL: [Sector; 2] = firmware::record::MODEL_SECTORS;
 /// The replay the runner put in place.
 const REPLAY: &[u8] = b"target/qemu/current.bin\0";
 /// Navigation runs that get the stress's extra work: 100 of them, while

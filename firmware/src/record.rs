@@ -96,6 +96,21 @@ pub const F405_SECTORS: [Sector; 2] = [
     },
 ];
 
+/// The journal's model in RAM (the QEMU build and the host twin: QEMU has
+/// no flash controller): two 2 KiB sectors from address 0.
+pub const MODEL_SECTORS: [Sector; 2] = [
+    Sector {
+        number: 10,
+        base: 0,
+        len: 2048,
+    },
+    Sector {
+        number: 11,
+        base: 2048,
+        len: 2048,
+    },
+];
+
 /// What a slot holds.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Slot {
@@ -322,18 +337,7 @@ mod tests {
         erases: u32,
     }
 
-    const SECTORS: [Sector; 2] = [
-        Sector {
-            number: 1,
-            base: 0x1000,
-            len: 2048,
-        },
-        Sector {
-            number: 2,
-            base: 0x1800,
-            len: 2048,
-        },
-    ];
+    const SECTORS: [Sector; 2] = MODEL_SECTORS;
 
     impl Nor {
         fn new() -> Self {
@@ -343,7 +347,7 @@ mod tests {
             }
         }
         fn at(addr: u32) -> usize {
-            (addr - 0x1000) as usize
+            addr as usize
         }
     }
 

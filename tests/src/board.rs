@@ -98,18 +98,7 @@ impl Flash for NorFlash {
 }
 
 /// The journal's sectors on the host and under QEMU: two of 2 KiB.
-pub const JOURNAL: [Sector; 2] = [
-    Sector {
-        number: 10,
-        base: 0,
-        len: 2048,
-    },
-    Sector {
-        number: 11,
-        base: 2048,
-        len: 2048,
-    },
-];
+pub const JOURNAL: [Sector; 2] = firmware::record::MODEL_SECTORS;
 
 /// A watchdog that counts its feeds.
 #[derive(Clone, Copy, Debug, Default)]
