@@ -500,9 +500,13 @@ impl Receiver {
         self.spec.outages.iter().any(|(s, l)| t >= *s && t < s + l)
     }
 
-    /// The fix for the vehicle in `v` (its time), `None` in an outage (the
-    /// error processes still advance).
-    pub fn fix(&mut self, v: &VehicleState) -> Option<GnssFix> {
+    /// The fix at the nominal epoch `t_epoch_s` (k / rate, s) for the
+    /// vehicle in `v` (its time, the physics step nearest the epoch),
+    /// `None` in an outage (the error processes still advance). Outages
+    /// are windows on the nominal epochs: the vehicle's accumulated float
+    /// time (299.99999999982 s for 300 s) would put every outage one fix
+    /// late and one fix long.
+    pub fn fix(&mut self, v: &VehicleState, t_epoch_s: f64) -> Option<GnssFix> {
         let sp = &self.spec;
         let sig = Vector3::new(sp.sigma_h_m, sp.sigma_h_m, sp.sigma_v_m) * 0.5f64.sqrt();
         let dt = self.last_t.map_or(1.0 / sp.rate_hz, |l| v.t_s - l);
@@ -515,7 +519,7 @@ impl Receiver {
                 .component_mul(&(sig * (1.0 - phi * phi).sqrt()));
         let white = self.rng.normal3().component_mul(&sig);
         let vel_noise = self.rng.normal3() * sp.sigma_vel_mps;
-        if self.in_outage(v.t_s) {
+        if self.in_outage(t_epoch_s) {
             return None;
         }
         let c_b_n = v.c_b_n();
@@ -591,6 +595,30 @@ mod tests {
                 DriveKind::Highway => assert!(vmax > 24.0 && vmax < 33.5, "{vmax}"),
             }
         }
+    }
+
+    #[test]
+    fn an_outage_is_a_window_on_the_fixes_nominal_epochs() {
+        // --gnss-outage 300:60 at 1 Hz: the fixes of 300 s to 359 s are
+        // dropped, those of 299 s and 360 s kept, whatever the vehicle's
+        // accumulated time at the physics step nearest each epoch.
+        let spec = GnssSpec {
+            outages: vec![(300.0, 60.0)],
+            ..GnssSpec::default()
+        };
+        let mut r = Receiver::new(spec, 1);
+        let d = Drive::plan(DriveKind::City, 600.0, 3);
+        let mut state = *Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 0.0).state();
+        let mut kept = vec![];
+        for k in 295..=365u32 {
+            let epoch = f64::from(k);
+            state.t_s = epoch - 1.8e-10;
+            if r.fix(&state, epoch).is_some() {
+                kept.push(k);
+            }
+        }
+        let want: Vec<u32> = (295..300).chain(360..=365).collect();
+        assert_eq!(kept, want);
     }
 
     #[test]

@@ -623,7 +623,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 let t_fix = k_gnss as f64 / d.gnss.rate_hz;
                 if t + 0.5 * PHYS_DT >= t_fix && t_fix <= cfg.duration_s {
                     k_gnss += 1;
-                    if let Some(f) = r.fix(v.state()) {
+                    if let Some(f) = r.fix(v.state(), t_fix) {
                         gnss_rows.push(GnssRow {
                             t_s: t_fix,
                             lat_deg: f.pos.lat_rad.to_degrees(),
