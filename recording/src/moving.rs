@@ -68,6 +68,58 @@ pub struct TruthRow {
     pub euler_deg: [f64; 3],
 }
 
+/// The truth at `t_s` (s), from the rows around it: position and velocity
+/// linearly interpolated, roll, pitch and heading along the shorter way
+/// round (heading across 0/360, roll across +-180); a row's own time gives
+/// that row exactly. `None` outside the rows' span (never extrapolated).
+pub fn truth_at(rows: &[TruthRow], t_s: f64) -> Option<TruthRow> {
+    let k = rows.partition_point(|r| r.t_s < t_s);
+    let b = rows.get(k)?;
+    if b.t_s == t_s {
+        return Some(*b);
+    }
+    let a = rows.get(k.checked_sub(1)?)?;
+    let u = (t_s - a.t_s) / (b.t_s - a.t_s);
+    let lerp = |x: [f64; 3], y: [f64; 3]| core::array::from_fn(|i| x[i] + u * (y[i] - x[i]));
+    let angle = |x: f64, y: f64| x + u * (y - x + 180.0).rem_euclid(360.0) - u * 180.0;
+    let mut euler: [f64; 3] = core::array::from_fn(|i| angle(a.euler_deg[i], b.euler_deg[i]));
+    euler[2] = euler[2].rem_euclid(360.0);
+    Some(TruthRow {
+        t_s,
+        p_n_m: lerp(a.p_n_m, b.p_n_m),
+        v_n_mps: lerp(a.v_n_mps, b.v_n_mps),
+        euler_deg: euler,
+    })
+}
+
+/// Checks that `truth.csv`'s rows span `[t0_s, t1_s]` (a run's first and
+/// last navigated times), so that every error is measured against the
+/// truth, never against a missing or extrapolated one.
+///
+/// # Errors
+/// The span the file covers and the run's, naming the file.
+pub fn truth_covers(
+    rows: &[TruthRow],
+    t0_s: f64,
+    t1_s: f64,
+    path: &Path,
+) -> Result<(), RecordingError> {
+    let (first, last) = match (rows.first(), rows.last()) {
+        (Some(f), Some(l)) => (f.t_s, l.t_s),
+        _ => return Err(crate::err(path, None, "no truth rows")),
+    };
+    if first <= t0_s && last >= t1_s {
+        return Ok(());
+    }
+    Err(crate::err(
+        path,
+        None,
+        format!(
+            "the truth covers {first:.3} s to {last:.3} s, the run {t0_s:.3} s to {t1_s:.3} s: errors would be measured against no truth"
+        ),
+    ))
+}
+
 /// The moving-base files and keys of a recording.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct MovingBase {
@@ -263,4 +315,42 @@ pub fn meta_lines(m: &MovingBase) -> (String, String, String) {
         )
     });
     (site, base, gnss)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(t_s: f64, x: f64, heading: f64) -> TruthRow {
+        TruthRow {
+            t_s,
+            p_n_m: [x, -x, 0.5 * x],
+            v_n_mps: [1.0, 2.0, 3.0 * x],
+            euler_deg: [-179.0 + x, 0.0, heading],
+        }
+    }
+
+    #[test]
+    fn the_truth_between_rows_is_interpolated_and_a_rows_time_gives_the_row() {
+        let rows = [row(10.0, 0.0, 359.0), row(10.1, 2.0, 3.0)];
+        assert_eq!(truth_at(&rows, 10.1), Some(rows[1]));
+        let m = truth_at(&rows, 10.075).unwrap();
+        // Three quarters of the way: x = 1.5; heading 359 -> 3 the short
+        // way (4 deg): 2 deg; roll -179 -> -177: -177.5.
+        assert!((m.p_n_m[0] - 1.5).abs() < 1e-12 && (m.p_n_m[1] + 1.5).abs() < 1e-12);
+        assert!((m.v_n_mps[2] - 4.5).abs() < 1e-12);
+        assert!((m.euler_deg[2] - 2.0).abs() < 1e-9, "{:?}", m.euler_deg);
+        assert!((m.euler_deg[0] + 177.5).abs() < 1e-9, "{:?}", m.euler_deg);
+    }
+
+    #[test]
+    fn no_truth_outside_the_rows_and_a_short_file_is_named() {
+        let rows = [row(10.0, 0.0, 0.0), row(11.0, 1.0, 0.0)];
+        assert!(truth_at(&rows, 9.99).is_none());
+        assert!(truth_at(&rows, 11.01).is_none());
+        let p = Path::new("run/truth.csv");
+        assert!(truth_covers(&rows, 10.0, 11.0, p).is_ok());
+        let e = truth_covers(&rows, 9.0, 11.0, p).unwrap_err().to_string();
+        assert!(e.contains("run/truth.csv") && e.contains("10.000 s"), "{e}");
+    }
 }

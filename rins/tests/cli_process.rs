@@ -156,3 +156,47 @@ fn demo_runs_and_writes_its_plots() {
     assert!(dir.join("recording_rotary").join("imu.csv").exists());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn navigate_gnss_refuses_a_truth_that_does_not_cover_the_run() {
+    // A 30 s drive whose truth.csv is cut at 20 s: an error naming the
+    // file and both spans, not errors measured against nothing.
+    let dir = std::env::temp_dir().join(format!("rins-cli-truth-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let rec = dir.join("rec");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    ok(&rins(&[
+        "simulate",
+        "--drive",
+        "city",
+        "--imu",
+        "icm42688",
+        "--duration-s",
+        "30",
+        "--out",
+        &s(&rec),
+    ]));
+    let truth = rec.join("truth.csv");
+    let text = std::fs::read_to_string(&truth).unwrap();
+    let cut: Vec<&str> = text
+        .lines()
+        .filter(|l| {
+            l.split(',')
+                .next()
+                .and_then(|t| t.parse::<f64>().ok())
+                .is_none_or(|t| t <= 20.0)
+        })
+        .collect();
+    std::fs::write(&truth, cut.join("\n") + "\n").unwrap();
+    let o = rins(&[
+        "navigate",
+        &s(&rec),
+        "--gnss",
+        "--out",
+        &s(&dir.join("nav")),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("truth.csv") && err.contains("covers"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -221,7 +221,6 @@ fn navigate_t<T: Real>(
     let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
     let mut run = AidedRun::default();
     let truth = mv.truth.as_deref().unwrap_or(&[]);
-    let mut next_truth = 0usize;
     let mut next_fix = 0usize;
     let n = rec.imu.len();
     let half = 0.5 / m.imu_rate_hz;
@@ -284,10 +283,7 @@ fn navigate_t<T: Real>(
         // the error in the tangent plane at the start, the filter's
         // covariance of (dp_n, dp_e, dv).
         if k % (m.imu_rate_hz.round().max(1.0) as usize) == 0 {
-            while truth.get(next_truth).is_some_and(|r| r.t_s < t - 1e-6) {
-                next_truth += 1;
-            }
-            if let Some(tr) = truth.get(next_truth).filter(|r| (r.t_s - t).abs() < 1e-6) {
+            if let Some(tr) = recording::moving::truth_at(truth, t) {
                 let e = nalgebra::SVector::<f64, 5>::from_column_slice(&[
                     tr.p_n_m[0] - ned.x,
                     tr.p_n_m[1] - ned.y,

@@ -64,9 +64,11 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         .as_ref()
         .and_then(|m| m.truth.as_deref())
         .unwrap_or(&[]);
+    // The truth at each row's time (interpolated: a truth file need not
+    // share the trajectory's rows).
     let h_err = |i: usize| -> Option<f64> {
         let r = run.rows.get(i)?;
-        let tr = truth.get(i).filter(|x| (x.t_s - r.traj.t_s).abs() < 1e-6)?;
+        let tr = recording::moving::truth_at(truth, r.traj.t_s)?;
         Some(
             ((tr.p_n_m[0] - r.traj.ned_m[0]).powi(2) + (tr.p_n_m[1] - r.traj.ned_m[1]).powi(2))
                 .sqrt(),

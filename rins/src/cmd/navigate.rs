@@ -121,6 +121,11 @@ pub fn run(a: &Args) -> Result<()> {
 
 /// `rins navigate --gnss`.
 fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
+    let truth = rec.moving.as_ref().and_then(|m| m.truth.as_deref());
+    if let (Some(truth), Some(first), Some(last)) = (truth, rec.imu.first(), rec.imu.last()) {
+        recording::moving::truth_covers(truth, first.t_s, last.t_s, &a.rec.join("truth.csv"))
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
     let profile = rins::aided::profile(rec, a.imu_profile.as_deref())?;
     let opt = rins::aided::AidedOptions {
         profile,
