@@ -53,12 +53,39 @@ pub struct AidedRow {
     pub sigma_p_m: [f64; 3],
     /// Velocity 1-sigma, m/s.
     pub sigma_v_mps: [f64; 3],
-    /// Attitude 1-sigma (rotation about north, east, down), deg.
+    /// Attitude 1-sigma of roll, pitch and heading, deg (the filter's
+    /// rotation error about north, east and down taken through the Euler
+    /// angles' Jacobian: [`euler_sigma_deg`]).
     pub sigma_att_deg: [f64; 3],
     /// A GNSS fix was used at this sample.
     pub fix: bool,
-    /// The detector said still.
+    /// The zero-velocity detector said still (evaluated every tenth
+    /// sample; the verdict holds in between).
     pub still: bool,
+    /// A zero-velocity update was applied at this sample.
+    pub zupt: bool,
+}
+
+/// The 1-sigma of roll, pitch and heading (deg) at `euler_rad` (roll,
+/// pitch, heading) from the covariance `p_phi` (rad^2) of the small
+/// rotation `phi` about north, east and down that the filter carries
+/// (`c_b_n,true = (I + [phi x]) c_b_n,est`). For ZYX angles a rotation in
+/// `n` is `phi = A d(roll, pitch, heading)` with `A`'s columns the roll
+/// axis `Rz(heading) Ry(pitch) x`, the pitch axis `Rz(heading) y` and
+/// down; so the angles' covariance is `A^-1 P A^-T` (singular only at
+/// pitch +-90 deg, where heading and roll are one angle: NaN there).
+pub fn euler_sigma_deg(euler_rad: [f64; 3], p_phi: &nalgebra::Matrix3<f64>) -> [f64; 3] {
+    let [_, th, psi] = euler_rad;
+    let (st, ct) = th.sin_cos();
+    let (sp, cp) = psi.sin_cos();
+    let a = nalgebra::Matrix3::new(cp * ct, -sp, 0.0, sp * ct, cp, 0.0, -st, 0.0, 1.0);
+    match a.try_inverse() {
+        Some(ai) => {
+            let c = ai * p_phi * ai.transpose();
+            [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt().to_degrees())
+        }
+        None => [f64::NAN; 3],
+    }
 }
 
 /// A navigation run.
@@ -275,9 +302,13 @@ fn navigate_t<T: Real>(
             },
             sigma_p_m: sig(I_P),
             sigma_v_mps: sig(I_V),
-            sigma_att_deg: sig(I_PHI).map(f64::to_degrees),
+            sigma_att_deg: euler_sigma_deg(
+                [e.roll, e.pitch, e.heading],
+                &nalgebra::Matrix3::from_fn(|r, c| kf.p[(I_PHI + r, I_PHI + c)].to_f64()),
+            ),
             fix: step.fix.is_some(),
             still: step.still,
+            zupt: step.zupt,
         });
         // NEES once a second against the truth (north, east, velocity):
         // the error in the tangent plane at the start, the filter's
@@ -338,7 +369,7 @@ pub const INITIAL_SIGMA: InitialSigma = InitialSigma {
 /// (trajectory-v1 allows extra columns named with their units).
 pub fn trajectory_csv(rows: &[AidedRow]) -> String {
     let mut s = String::with_capacity(rows.len() * 200);
-    s.push_str("t_s,north_m,east_m,down_m,vn_mps,ve_mps,vd_mps,roll_deg,pitch_deg,heading_deg,sigma_north_m,sigma_east_m,sigma_down_m,sigma_vn_mps,sigma_ve_mps,sigma_vd_mps,sigma_roll_deg,sigma_pitch_deg,sigma_heading_deg,gnss_fix,zupt\n");
+    s.push_str("t_s,north_m,east_m,down_m,vn_mps,ve_mps,vd_mps,roll_deg,pitch_deg,heading_deg,sigma_north_m,sigma_east_m,sigma_down_m,sigma_vn_mps,sigma_ve_mps,sigma_vd_mps,sigma_roll_deg,sigma_pitch_deg,sigma_heading_deg,gnss_fix,still,zupt\n");
     for r in rows {
         let t = &r.traj;
         let [n, e, d] = t.ned_m;
@@ -348,11 +379,43 @@ pub fn trajectory_csv(rows: &[AidedRow]) -> String {
         let [svn, sve, svd] = r.sigma_v_mps;
         let [sr, sp, sh] = r.sigma_att_deg;
         s.push_str(&format!(
-            "{:.3},{n:.4},{e:.4},{d:.4},{vn:.5},{ve:.5},{vd:.5},{ro:.6},{pi:.6},{he:.6},{sn:.4},{se:.4},{sd:.4},{svn:.5},{sve:.5},{svd:.5},{sr:.6},{sp:.6},{sh:.6},{},{}\n",
+            "{:.3},{n:.4},{e:.4},{d:.4},{vn:.5},{ve:.5},{vd:.5},{ro:.6},{pi:.6},{he:.6},{sn:.4},{se:.4},{sd:.4},{svn:.5},{sve:.5},{svd:.5},{sr:.6},{sp:.6},{sh:.6},{},{},{}\n",
             t.t_s,
             u8::from(r.fix),
-            u8::from(r.still)
+            u8::from(r.still),
+            u8::from(r.zupt)
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::euler_sigma_deg;
+    use nalgebra::Matrix3;
+
+    #[test]
+    fn euler_sigmas_follow_the_rotation_axes_closed_form() {
+        let s = 0.01f64; // rad
+        let deg = s.to_degrees();
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
+        // Level, heading north: roll about north, pitch about east.
+        let p = Matrix3::from_diagonal(&nalgebra::Vector3::new(s * s, 4.0 * s * s, 9.0 * s * s));
+        assert!(close(
+            euler_sigma_deg([0.0; 3], &p),
+            [deg, 2.0 * deg, 3.0 * deg]
+        ));
+        // Heading east: roll about east, pitch about south.
+        let east = euler_sigma_deg([0.0, 0.0, 90f64.to_radians()], &p);
+        assert!(close(east, [2.0 * deg, deg, 3.0 * deg]), "{east:?}");
+        // Pitched 30 deg up, heading north: a rotation about north is
+        // roll / cos(30) and heading tan(30) (roll's axis leans out of the
+        // level plane); one about down is heading alone.
+        let th = 30f64.to_radians();
+        let pn = Matrix3::from_diagonal(&nalgebra::Vector3::new(s * s, 0.0, 0.0));
+        let got = euler_sigma_deg([0.0, th, 0.0], &pn);
+        assert!(close(got, [deg / th.cos(), 0.0, deg * th.tan()]), "{got:?}");
+        let pd = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.0, 0.0, s * s));
+        assert!(close(euler_sigma_deg([0.0, th, 0.0], &pd), [0.0, 0.0, deg]));
+    }
 }
