@@ -73,6 +73,16 @@ pub const HISTORY: usize = 64;
 /// this assumption.
 pub const GNSS_CORR_SHARE: f64 = 0.5;
 
+/// Consecutive fixes whose position the gate refused, agreeing among
+/// themselves, after which the navigator re-initialises its position and
+/// velocity from the last ([`AidedCounts::reinits`]): three fixes (3 s at
+/// 1 Hz) tell a lost filter from one bad fix.
+pub const REINIT_FIXES: usize = 3;
+
+/// The slack of the agreement test, in sigmas of the two fixes' combined
+/// horizontal error.
+pub const REINIT_AGREE_SIGMA: f64 = 3.0;
+
 /// A receiver's fix in its own integer units (the u-blox NAV-PVT style the
 /// command link carries): WGS-84 position of the antenna, NED velocity,
 /// the receiver's 1-sigma accuracies.
@@ -184,6 +194,10 @@ pub struct AidedCounts {
     pub fixes_replaced: u32,
     /// Corrections the mechanization refused.
     pub corrections_refused: u32,
+    /// Re-initialisations of position and velocity from fixes the gate
+    /// refused [`REINIT_FIXES`] times in a row while they agreed among
+    /// themselves.
+    pub reinits: u32,
 }
 
 /// What one step did.
@@ -221,11 +235,34 @@ pub struct AidedNav<T: Real> {
     /// zeros, and a board's blank static belongs in `.bss`).
     pending: Option<GnssFix>,
     pending_at: Option<u64>,
+    /// The fixes the gate refused in a row (the last [`REINIT_FIXES`]).
+    refused_fixes: [RefusedFix<T>; REINIT_FIXES],
+    refused_run: usize,
     /// The last [`HISTORY`] states (a ring, by sample).
     past: [Past<T>; HISTORY],
     past_head: usize,
     /// What has been counted.
     pub counts: AidedCounts,
+}
+
+/// A fix whose position the gate refused: its time of validity (µs), the
+/// antenna's position and velocity in `n` (m, m/s), its horizontal sigma
+/// (m).
+#[derive(Clone, Copy, Debug, Default)]
+struct RefusedFix<T: Real> {
+    t_us: u64,
+    p_n: Vector3<T>,
+    v_n: Vector3<T>,
+    sigma_h: T,
+}
+
+impl RefusedFix<f32> {
+    const BLANK: Self = Self {
+        t_us: 0,
+        p_n: crate::real::zeros_f32(),
+        v_n: crate::real::zeros_f32(),
+        sigma_h: 0.0,
+    };
 }
 
 /// A stored navigation state: what a fix's innovation needs at its time
@@ -305,6 +342,8 @@ impl AidedNav<f32> {
         zupt_due: false,
         pending: None,
         pending_at: None,
+        refused_fixes: [RefusedFix::BLANK; REINIT_FIXES],
+        refused_run: 0,
         past: [Past::BLANK; HISTORY],
         past_head: 0,
         counts: AidedCounts {
@@ -313,6 +352,7 @@ impl AidedNav<f32> {
             fixes_used: 0,
             fixes_replaced: 0,
             corrections_refused: 0,
+            reinits: 0,
         },
     };
 }
@@ -375,6 +415,8 @@ impl<T: Real> AidedNav<T> {
             zupt_due: false,
             pending: None,
             pending_at: None,
+            refused_fixes: [RefusedFix::default(); REINIT_FIXES],
+            refused_run: 0,
             past: [Past::default(); HISTORY],
             past_head: 0,
             counts: AidedCounts::default(),
@@ -412,6 +454,8 @@ impl<T: Real> AidedNav<T> {
         self.zupt_due = false;
         self.pending = None;
         self.pending_at = None;
+        self.refused_fixes.fill(RefusedFix::default());
+        self.refused_run = 0;
         self.past.fill(Past::default());
         self.past_head = 0;
         self.counts = AidedCounts::default();
@@ -667,14 +711,66 @@ impl<T: Real> AidedNav<T> {
                 used += r.used;
             }
         };
-        add(self
+        let rp = self
             .kf
-            .update_position_opt(&zp, &l_n, &sp, ws.as_deref_mut()));
+            .update_position_opt(&zp, &l_n, &sp, ws.as_deref_mut());
+        let refused = matches!(rp, Ok(r) if r.rejected > 0);
+        add(rp);
         add(self.kf.update_velocity_opt(&zv, &sv, ws));
         if used > 0 {
             self.counts.fixes_used = self.counts.fixes_used.saturating_add(1);
         }
+        let sigma_h = T::lit(f64::from(fix.sigma_h_mm) * 1e-3);
+        let seen = RefusedFix {
+            t_us: at.t_us,
+            p_n: zp + at.p_n + l_n,
+            v_n: v_fix,
+            sigma_h,
+        };
+        if self.lost_after(refused, seen) {
+            let sigma_v = T::lit(f64::from(fix.sigma_v_mm) * 1e-3);
+            let sp_all = Vector3::new(sigma_h, sigma_h, sigma_v);
+            let sv = T::lit(f64::from(fix.sigma_vel_mmps) * 1e-3);
+            self.kf.reinit_position_velocity(&zp, &zv, &sp_all, sv);
+            self.counts.reinits = self.counts.reinits.saturating_add(1);
+            self.refused_run = 0;
+        }
         (nis, used)
+    }
+
+    /// Keeps the run of fixes the gate refused; true when it holds
+    /// [`REINIT_FIXES`] fixes that agree among themselves: each one's
+    /// horizontal position where the one before, moved at the mean of
+    /// their two velocities, says it should be, within
+    /// [`REINIT_AGREE_SIGMA`] of their combined horizontal sigma plus
+    /// their velocities' own disagreement over the interval.
+    fn lost_after(&mut self, refused: bool, seen: RefusedFix<T>) -> bool {
+        if !refused {
+            self.refused_run = 0;
+            return false;
+        }
+        if let Some(slot) = self.refused_fixes.get_mut(self.refused_run % REINIT_FIXES) {
+            *slot = seen;
+        }
+        self.refused_run = self.refused_run.saturating_add(1);
+        if self.refused_run < REINIT_FIXES {
+            return false;
+        }
+        let k = self.refused_run;
+        let at = |i: usize| self.refused_fixes.get((k + i) % REINIT_FIXES).copied();
+        (0..REINIT_FIXES - 1).all(|i| match (at(i), at(i + 1)) {
+            (Some(a), Some(b)) => {
+                let dt = T::lit(b.t_us.saturating_sub(a.t_us) as f64 * 1e-6);
+                let half = T::lit(0.5);
+                let d = b.p_n - a.p_n - (a.v_n + b.v_n) * (half * dt);
+                let dv = (b.v_n - a.v_n).xy().norm() * dt;
+                let tol = T::lit(REINIT_AGREE_SIGMA)
+                    * (a.sigma_h * a.sigma_h + b.sigma_h * b.sigma_h).sqrt_cr()
+                    + dv;
+                d.xy().norm() <= tol
+            }
+            _ => false,
+        })
     }
 
     /// The detector's verdict on the window: no rotation above

@@ -758,6 +758,53 @@ impl<T: Real> Eskf<T> {
         self.update_rows(rows, z, sigma, ws)
     }
 
+    /// Re-initialises position and velocity from a measurement the gate
+    /// keeps refusing while it agrees with itself (a filter lost after an
+    /// outage): the error estimate of position and velocity set to the
+    /// whole innovations `zp` (the antenna's, m, NED) and `zv` (m/s), their
+    /// covariance to the measurement's own (`sigma_p` per axis, m;
+    /// `sigma_v`, m/s) with no correlation to the other states, and the
+    /// receiver's correlated error restarted at its prior.
+    pub fn reinit_position_velocity(
+        &mut self,
+        zp: &Vector3<T>,
+        zv: &Vector3<T>,
+        sigma_p: &Vector3<T>,
+        sigma_v: T,
+    ) {
+        let blocks = [I_P, I_V, I_GP];
+        for i in blocks.iter().flat_map(|b| *b..*b + 3) {
+            for j in 0..N {
+                for idx in [(i, j), (j, i)] {
+                    if let Some(x) = self.p.get_mut(idx) {
+                        *x = T::zero();
+                    }
+                }
+            }
+        }
+        let [gh, gv] = self.cfg.gnss_corr_sigma_m;
+        let gp = Vector3::new(gh, gh, gv).map(T::lit);
+        let axes = sigma_p.iter().zip(gp.iter()).zip(zp.iter().zip(zv.iter()));
+        for (k, ((sp, g), (p, v))) in axes.enumerate() {
+            let diag = [
+                (I_P + k, *sp * *sp),
+                (I_V + k, sigma_v * sigma_v),
+                (I_GP + k, *g * *g),
+            ];
+            for (i, var) in diag {
+                if let Some(x) = self.p.get_mut((i, i)) {
+                    *x = var;
+                }
+            }
+            for (i, e) in [(I_P + k, *p), (I_V + k, *v), (I_GP + k, T::zero())] {
+                if let Some(x) = self.dx.get_mut(i) {
+                    *x = e;
+                }
+            }
+        }
+        self.gnss_bias = Vector3::zeros();
+    }
+
     /// Hands the error estimate over: `(dp, dv, phi)` to add to the
     /// mechanization's position (m), velocity (m/s) and attitude (a
     /// rotation in `n`, rad); the bias errors go into [`Self::bias_g`],

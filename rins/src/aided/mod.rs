@@ -101,6 +101,9 @@ pub struct AidedRun {
     pub refused: u32,
     /// Zero-velocity updates made.
     pub zupts: u32,
+    /// Re-initialisations of position and velocity from fixes the gate
+    /// kept refusing while they agreed among themselves.
+    pub reinits: u32,
     /// Steps the mechanization refused (non-finite samples, gaps).
     pub faults: u32,
     /// Normalised estimation error squared against `truth.csv` (simulated
@@ -338,6 +341,7 @@ fn navigate_t<T: Real>(
     run.rejected = an.kf.rejected;
     run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
     run.zupts = an.counts.zupts;
+    run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
     progress(1.0);
     Ok(run)

@@ -31,6 +31,9 @@ pub struct AidedSummary {
     pub refused: u32,
     /// See `zupts`.
     pub faults: u32,
+    /// Re-initialisations from fixes the gate kept refusing while they
+    /// agreed among themselves (a filter lost after an outage).
+    pub reinits: u32,
 }
 
 /// One outage's errors.
@@ -76,6 +79,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     };
     let mut s = AidedSummary {
         zupts: run.zupts,
+        reinits: run.reinits,
         rejected: run.rejected,
         refused: run.refused,
         faults: run.faults,
@@ -170,8 +174,8 @@ impl AidedSummary {
             );
         }
         o += &format!(
-            "zero-velocity updates {}, gate rejections {}, refused {}, mechanization faults {}\n",
-            self.zupts, self.rejected, self.refused, self.faults
+            "zero-velocity updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
+            self.zupts, self.rejected, self.refused, self.faults, self.reinits
         );
         o
     }
