@@ -83,6 +83,14 @@ pub const REINIT_FIXES: usize = 3;
 /// horizontal error.
 pub const REINIT_AGREE_SIGMA: f64 = 3.0;
 
+/// The velocity sigma a re-initialisation from position-only fixes falls
+/// back to when their positions give no velocity, m/s (a car's speed).
+pub const REINIT_NO_VEL_SIGMA_MPS: f64 = 30.0;
+
+/// The largest acceleration a vehicle's position-only fixes may show and
+/// still agree among themselves, m/s^2 (hard braking).
+pub const REINIT_MAX_ACCEL_MPS2: f64 = 8.0;
+
 /// A receiver's fix in its own integer units (the u-blox NAV-PVT style the
 /// command link carries): WGS-84 position of the antenna, NED velocity,
 /// the receiver's 1-sigma accuracies.
@@ -94,14 +102,22 @@ pub struct GnssFix {
     pub lon_e7: i32,
     /// Height above the ellipsoid, mm.
     pub height_mm: i32,
-    /// Velocity north, east, down, mm/s.
+    /// Velocity north, east, down, mm/s (ignored in a position-only fix).
     pub v_n_mmps: [i32; 3],
     /// Horizontal position 1-sigma, mm.
     pub sigma_h_mm: u32,
     /// Vertical position 1-sigma, mm.
     pub sigma_v_mm: u32,
-    /// Velocity 1-sigma (each axis), mm/s.
+    /// Velocity 1-sigma (each axis), mm/s; 0: a position-only fix (no
+    /// velocity measured).
     pub sigma_vel_mmps: u32,
+}
+
+impl GnssFix {
+    /// Whether the fix measured velocity.
+    pub fn has_velocity(&self) -> bool {
+        self.sigma_vel_mmps > 0
+    }
 }
 
 impl GnssFix {
@@ -252,8 +268,10 @@ pub struct AidedNav<T: Real> {
 struct RefusedFix<T: Real> {
     t_us: u64,
     p_n: Vector3<T>,
+    /// Zero for a position-only fix.
     v_n: Vector3<T>,
     sigma_h: T,
+    has_vel: bool,
 }
 
 impl RefusedFix<f32> {
@@ -262,7 +280,42 @@ impl RefusedFix<f32> {
         p_n: crate::real::zeros_f32(),
         v_n: crate::real::zeros_f32(),
         sigma_h: 0.0,
+        has_vel: false,
     };
+}
+
+/// Two fixes with velocity agree: `b` where `a`, moved at their mean
+/// velocity, says, within [`REINIT_AGREE_SIGMA`] of their combined
+/// horizontal sigma plus their velocities' own disagreement over the
+/// interval.
+fn agree<T: Real>(a: &RefusedFix<T>, b: &RefusedFix<T>) -> bool {
+    let dt = T::lit(b.t_us.saturating_sub(a.t_us) as f64 * 1e-6);
+    let d = b.p_n - a.p_n - (a.v_n + b.v_n) * (T::lit(0.5) * dt);
+    let dv = (b.v_n - a.v_n).xy().norm() * dt;
+    let tol =
+        T::lit(REINIT_AGREE_SIGMA) * (a.sigma_h * a.sigma_h + b.sigma_h * b.sigma_h).sqrt_cr();
+    d.xy().norm() <= tol + dv
+}
+
+/// Three position-only fixes agree: the velocity change their positions
+/// imply is within [`REINIT_AGREE_SIGMA`] of what their sigmas allow plus
+/// what [`REINIT_MAX_ACCEL_MPS2`] allows over the intervals.
+fn agree_positions<T: Real>(a: &RefusedFix<T>, b: &RefusedFix<T>, c: &RefusedFix<T>) -> bool {
+    let dt1 = b.t_us.saturating_sub(a.t_us) as f64 * 1e-6;
+    let dt2 = c.t_us.saturating_sub(b.t_us) as f64 * 1e-6;
+    if dt1 <= 0.0 || dt2 <= 0.0 {
+        return false;
+    }
+    let v1 = (b.p_n - a.p_n) / T::lit(dt1);
+    let v2 = (c.p_n - b.p_n) / T::lit(dt2);
+    let (sa, sb, sc) = (a.sigma_h.to_f64(), b.sigma_h.to_f64(), c.sigma_h.to_f64());
+    let s = libm::sqrt(
+        (sa / dt1) * (sa / dt1)
+            + (sb * (1.0 / dt1 + 1.0 / dt2)) * (sb * (1.0 / dt1 + 1.0 / dt2))
+            + (sc / dt2) * (sc / dt2),
+    );
+    let tol = REINIT_AGREE_SIGMA * s + REINIT_MAX_ACCEL_MPS2 * 0.5 * (dt1 + dt2);
+    (v2 - v1).xy().norm().to_f64() <= tol
 }
 
 /// A stored navigation state: what a fix's innovation needs at its time
@@ -716,7 +769,9 @@ impl<T: Real> AidedNav<T> {
             .update_position_opt(&zp, &l_n, &sp, ws.as_deref_mut());
         let refused = matches!(rp, Ok(r) if r.rejected > 0);
         add(rp);
-        add(self.kf.update_velocity_opt(&zv, &sv, ws));
+        if fix.has_velocity() {
+            add(self.kf.update_velocity_opt(&zv, &sv, ws));
+        }
         if used > 0 {
             self.counts.fixes_used = self.counts.fixes_used.saturating_add(1);
         }
@@ -726,16 +781,37 @@ impl<T: Real> AidedNav<T> {
             p_n: zp + at.p_n + l_n,
             v_n: v_fix,
             sigma_h,
+            has_vel: fix.has_velocity(),
         };
         if self.lost_after(refused, seen) {
             let sigma_v = T::lit(f64::from(fix.sigma_v_mm) * 1e-3);
             let sp_all = Vector3::new(sigma_h, sigma_h, sigma_v);
-            let sv = T::lit(f64::from(fix.sigma_vel_mmps) * 1e-3);
+            // A position-only fix: the velocity from the refused fixes'
+            // own positions (the last two, over their interval), with
+            // their combined sigma over it.
+            let (zv, sv) = match fix.has_velocity() {
+                true => (zv, T::lit(f64::from(fix.sigma_vel_mmps) * 1e-3)),
+                false => self.refused_velocity().map_or(
+                    (Vector3::zeros(), T::lit(REINIT_NO_VEL_SIGMA_MPS)),
+                    |(v, s)| (v - v_ant, s),
+                ),
+            };
             self.kf.reinit_position_velocity(&zp, &zv, &sp_all, sv);
             self.counts.reinits = self.counts.reinits.saturating_add(1);
             self.refused_run = 0;
         }
         (nis, used)
+    }
+
+    /// The velocity the last two refused fixes' positions imply (m/s, `n`)
+    /// and its 1-sigma (their combined horizontal sigma over the interval).
+    fn refused_velocity(&self) -> Option<(Vector3<T>, T)> {
+        let k = self.refused_run;
+        let at = |i: usize| self.refused_fixes.get((k + i) % REINIT_FIXES).copied();
+        let (a, b) = (at(REINIT_FIXES - 2)?, at(REINIT_FIXES - 1)?);
+        let dt = T::lit(b.t_us.checked_sub(a.t_us).filter(|d| *d > 0)? as f64 * 1e-6);
+        let s = (a.sigma_h * a.sigma_h + b.sigma_h * b.sigma_h).sqrt_cr() / dt;
+        Some(((b.p_n - a.p_n) / dt, s))
     }
 
     /// Keeps the run of fixes the gate refused; true when it holds
@@ -758,19 +834,20 @@ impl<T: Real> AidedNav<T> {
         }
         let k = self.refused_run;
         let at = |i: usize| self.refused_fixes.get((k + i) % REINIT_FIXES).copied();
-        (0..REINIT_FIXES - 1).all(|i| match (at(i), at(i + 1)) {
-            (Some(a), Some(b)) => {
-                let dt = T::lit(b.t_us.saturating_sub(a.t_us) as f64 * 1e-6);
-                let half = T::lit(0.5);
-                let d = b.p_n - a.p_n - (a.v_n + b.v_n) * (half * dt);
-                let dv = (b.v_n - a.v_n).xy().norm() * dt;
-                let tol = T::lit(REINIT_AGREE_SIGMA)
-                    * (a.sigma_h * a.sigma_h + b.sigma_h * b.sigma_h).sqrt_cr()
-                    + dv;
-                d.xy().norm() <= tol
-            }
+        let pairs = (0..REINIT_FIXES - 1).all(|i| match (at(i), at(i + 1)) {
+            (Some(a), Some(b)) if a.has_vel && b.has_vel => agree(&a, &b),
+            (Some(_), Some(_)) => true,
             _ => false,
-        })
+        });
+        let triples =
+            (0..REINIT_FIXES.saturating_sub(2)).all(|i| match (at(i), at(i + 1), at(i + 2)) {
+                (Some(a), Some(b), Some(c)) if !(a.has_vel && b.has_vel && c.has_vel) => {
+                    agree_positions(&a, &b, &c)
+                }
+                (Some(_), Some(_), Some(_)) => true,
+                _ => false,
+            });
+        pairs && triples
     }
 
     /// The detector's verdict on the window: no rotation above

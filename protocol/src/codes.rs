@@ -127,7 +127,8 @@ codes! {
         /// Unknown command or malformed frame.
         Malformed = 4,
         /// A GNSS fix out of range: latitude beyond +-90 deg, longitude
-        /// beyond +-180 deg, a sigma zero.
+        /// beyond +-180 deg, a position sigma zero (a velocity sigma of
+        /// zero is a position-only fix).
         BadFix = 5,
         /// A GNSS fix while the board is not navigating with the aided
         /// filter (not configured for it, or still starting).

@@ -104,7 +104,6 @@ impl Command {
                     || f.lon_e7.unsigned_abs() > 1_800_000_000
                     || f.sigma_h_mm == 0
                     || f.sigma_v_mm == 0
-                    || f.sigma_vel_mmps == 0
                 {
                     return Err(Status::BadFix);
                 }

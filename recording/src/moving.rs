@@ -29,29 +29,51 @@ pub struct GnssRow {
     pub lon_deg: f64,
     /// Height above the ellipsoid, m.
     pub height_m: f64,
-    /// Velocity north, east, down, m/s.
+    /// Velocity north, east, down, m/s (NaN in a position-only fix).
     pub v_n_mps: [f64; 3],
     /// Horizontal 1-sigma, m.
     pub sigma_h_m: f64,
     /// Vertical 1-sigma, m.
     pub sigma_v_m: f64,
-    /// Velocity 1-sigma, m/s.
+    /// Velocity 1-sigma, m/s (NaN in a position-only fix).
     pub sigma_vel_mps: f64,
 }
 
 impl GnssRow {
+    /// Whether the receiver gave a velocity (a position-only fix has its
+    /// velocity and its sigma NaN).
+    pub fn has_velocity(&self) -> bool {
+        self.sigma_vel_mps.is_finite()
+    }
+
     /// The fix in the receiver's integer units, as the board gets it over
     /// the command link and core-nav's aided navigator takes it.
+    /// Sigmas below the units' 1 mm (or 1 mm/s) are kept at 1, so that a
+    /// fix never reads as position-only (velocity sigma 0) or as refused.
     pub fn to_fix(&self) -> core_nav::aided::GnssFix {
-        core_nav::aided::GnssFix::from_si(
+        let mut f = core_nav::aided::GnssFix::from_si(
             self.lat_deg,
             self.lon_deg,
             self.height_m,
-            self.v_n_mps,
+            if self.has_velocity() {
+                self.v_n_mps
+            } else {
+                [0.0; 3]
+            },
             self.sigma_h_m,
             self.sigma_v_m,
-            self.sigma_vel_mps,
-        )
+            if self.has_velocity() {
+                self.sigma_vel_mps
+            } else {
+                0.0
+            },
+        );
+        f.sigma_h_mm = f.sigma_h_mm.max(1);
+        f.sigma_v_mm = f.sigma_v_mm.max(1);
+        if self.has_velocity() {
+            f.sigma_vel_mmps = f.sigma_vel_mmps.max(1);
+        }
+        f
     }
 }
 
@@ -147,6 +169,20 @@ pub const GNSS_COLS: [&str; 10] = [
     "sigma_vel_mps",
 ];
 
+/// `gnss.csv` of position-only fixes: the four velocity columns absent
+/// together.
+pub const GNSS_POS_COLS: [&str; 6] = [
+    "t_s",
+    "lat_deg",
+    "lon_deg",
+    "height_m",
+    "sigma_h_m",
+    "sigma_v_m",
+];
+
+/// The velocity columns, present or absent together.
+const GNSS_VEL_COLS: [&str; 4] = ["vn_mps", "ve_mps", "vd_mps", "sigma_vel_mps"];
+
 /// `truth.csv` (and trajectory-v1) columns.
 pub const TRUTH_COLS: [&str; 10] = [
     "t_s",
@@ -226,27 +262,93 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, Recordi
 /// As the other recording files (missing columns, bad rows, time not
 /// increasing), and a sigma that is not positive.
 pub fn parse_gnss(text: &str, path: &Path) -> Result<Vec<GnssRow>, RecordingError> {
-    let rows = parse_columns(text, path, &GNSS_COLS)?;
-    rows.into_iter()
+    let header: Vec<&str> = text
+        .lines()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("")
+        .split(',')
+        .map(str::trim)
+        .collect();
+    let has = GNSS_VEL_COLS.map(|c| header.contains(&c));
+    if has.iter().all(|h| !h) {
+        return parse_columns(text, path, &GNSS_POS_COLS)?
+            .into_iter()
+            .map(|(line, v)| {
+                let [t_s, lat_deg, lon_deg, height_m, sh, sv] = v[..] else {
+                    return Err(err(path, Some(line), "wrong number of columns"));
+                };
+                gnss_row(
+                    path,
+                    line,
+                    [t_s, lat_deg, lon_deg, height_m],
+                    [f64::NAN; 3],
+                    [sh, sv, f64::NAN],
+                )
+            })
+            .collect();
+    }
+    if has.iter().any(|h| !h) {
+        return Err(err(
+            path,
+            Some(1),
+            "the velocity columns vn_mps, ve_mps, vd_mps, sigma_vel_mps are present or absent together",
+        ));
+    }
+    parse_columns(text, path, &GNSS_COLS)?
+        .into_iter()
         .map(|(line, v)| {
             let [t_s, lat_deg, lon_deg, height_m, vn, ve, vd, sh, sv, sw] = v[..] else {
                 return Err(err(path, Some(line), "wrong number of columns"));
             };
-            if !(sh > 0.0 && sv > 0.0 && sw > 0.0) {
-                return Err(err(path, Some(line), "sigmas must be positive"));
-            }
-            Ok(GnssRow {
-                t_s,
-                lat_deg,
-                lon_deg,
-                height_m,
-                v_n_mps: [vn, ve, vd],
-                sigma_h_m: sh,
-                sigma_v_m: sv,
-                sigma_vel_mps: sw,
-            })
+            gnss_row(
+                path,
+                line,
+                [t_s, lat_deg, lon_deg, height_m],
+                [vn, ve, vd],
+                [sh, sv, sw],
+            )
         })
         .collect()
+}
+
+/// One fix, checked: a position in range, positive sigmas, and a velocity
+/// with its positive sigma, or (a position-only file's row) all four NaN.
+fn gnss_row(
+    path: &Path,
+    line: usize,
+    [t_s, lat_deg, lon_deg, height_m]: [f64; 4],
+    v_n_mps: [f64; 3],
+    [sh, sv, sw]: [f64; 3],
+) -> Result<GnssRow, RecordingError> {
+    if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 180.0 && height_m.is_finite()) {
+        return Err(err(
+            path,
+            Some(line),
+            "latitude, longitude or height out of range",
+        ));
+    }
+    if !(sh > 0.0 && sv > 0.0) {
+        return Err(err(path, Some(line), "sigmas must be positive"));
+    }
+    let no_velocity = sw.is_nan() && v_n_mps.iter().all(|v| v.is_nan());
+    let velocity = sw > 0.0 && v_n_mps.iter().all(|v| v.is_finite());
+    if !(no_velocity || velocity) {
+        return Err(err(
+            path,
+            Some(line),
+            "the velocity must be finite with a positive sigma (or all four NaN: no velocity)",
+        ));
+    }
+    Ok(GnssRow {
+        t_s,
+        lat_deg,
+        lon_deg,
+        height_m,
+        v_n_mps,
+        sigma_h_m: sh,
+        sigma_v_m: sv,
+        sigma_vel_mps: sw,
+    })
 }
 
 /// Parses `truth.csv` (or a trajectory-v1 `trajectory.csv`).
@@ -271,16 +373,33 @@ pub fn parse_truth(text: &str, path: &Path) -> Result<Vec<TruthRow>, RecordingEr
 }
 
 /// `gnss.csv` as text.
+///
+/// Position-only when no row has a velocity; otherwise every column, and
+/// a position-only row among rows with velocity is written with NaNs that
+/// the reader refuses (recording-v1: the columns go together per file).
 pub fn gnss_text(rows: &[GnssRow]) -> String {
-    let mut s = GNSS_COLS.join(",");
+    let position_only = !rows.is_empty() && rows.iter().all(|r| !r.has_velocity());
+    let mut s = if position_only {
+        GNSS_POS_COLS.join(",")
+    } else {
+        GNSS_COLS.join(",")
+    };
     s.push('\n');
     for r in rows {
         let [vn, ve, vd] = r.v_n_mps;
-        let _ = writeln!(
-            s,
-            "{:.3},{:.9},{:.9},{:.3},{vn:.4},{ve:.4},{vd:.4},{},{},{}",
-            r.t_s, r.lat_deg, r.lon_deg, r.height_m, r.sigma_h_m, r.sigma_v_m, r.sigma_vel_mps
-        );
+        let _ = if position_only {
+            writeln!(
+                s,
+                "{:.3},{:.9},{:.9},{:.3},{},{}",
+                r.t_s, r.lat_deg, r.lon_deg, r.height_m, r.sigma_h_m, r.sigma_v_m
+            )
+        } else {
+            writeln!(
+                s,
+                "{:.3},{:.9},{:.9},{:.3},{vn:.4},{ve:.4},{vd:.4},{},{},{}",
+                r.t_s, r.lat_deg, r.lon_deg, r.height_m, r.sigma_h_m, r.sigma_v_m, r.sigma_vel_mps
+            )
+        };
     }
     s
 }
@@ -320,6 +439,58 @@ pub fn meta_lines(m: &MovingBase) -> (String, String, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn position_only_fixes_read_write_and_reach_the_filter_without_velocity() {
+        let p = Path::new("walk/gnss.csv");
+        let text = "t_s,lat_deg,lon_deg,height_m,sigma_h_m,sigma_v_m\n1.0,-33.9,151.2,40.0,2.5,4.0\n2.0,-33.9,151.2,40.5,0.01,0.02\n";
+        let rows = parse_gnss(text, p).unwrap();
+        assert!(rows.iter().all(|r| !r.has_velocity()));
+        assert_eq!(parse_gnss(&gnss_text(&rows), p).unwrap().len(), 2);
+        assert!(gnss_text(&rows).starts_with("t_s,lat_deg,lon_deg,height_m,sigma_h_m,sigma_v_m\n"));
+        let f = rows[1].to_fix();
+        assert!(!f.has_velocity());
+        assert_eq!((f.sigma_h_mm, f.sigma_v_mm), (10, 20));
+        // A velocity sigma below a mm/s still says "velocity".
+        let with = GnssRow {
+            v_n_mps: [1.0, 0.0, 0.0],
+            sigma_vel_mps: 1e-4,
+            ..rows[0]
+        };
+        assert!(with.to_fix().has_velocity());
+    }
+
+    #[test]
+    fn bad_fixes_are_refused_naming_the_file_and_line() {
+        let p = Path::new("walk/gnss.csv");
+        let head =
+            "t_s,lat_deg,lon_deg,height_m,vn_mps,ve_mps,vd_mps,sigma_h_m,sigma_v_m,sigma_vel_mps\n";
+        let ok = "1.0,30.5,114.3,20,0,0,0,1.5,3,0.05\n";
+        for (bad, why) in [
+            (
+                "2.0,30.5,114.3,20,0,0,0,0,3,0.05\n",
+                "sigmas must be positive",
+            ),
+            (
+                "2.0,30.5,114.3,20,0,0,0,-1,3,0.05\n",
+                "sigmas must be positive",
+            ),
+            ("2.0,30.5,114.3,20,0,0,0,NaN,3,0.05\n", "not finite"),
+            ("2.0,30.5,114.3,20,0,0,0,1.5,3,0\n", "velocity"),
+            ("2.0,95.0,114.3,20,0,0,0,1.5,3,0.05\n", "out of range"),
+            ("0.5,30.5,114.3,20,0,0,0,1.5,3,0.05\n", ""),
+        ] {
+            let e = parse_gnss(&format!("{head}{ok}{bad}"), p).unwrap_err();
+            assert_eq!(e.line, Some(3), "{bad}: {e}");
+            assert!(
+                e.to_string().contains("walk/gnss.csv") && e.to_string().contains(why),
+                "{e}"
+            );
+        }
+        let partial = "t_s,lat_deg,lon_deg,height_m,vn_mps,ve_mps,vd_mps,sigma_h_m,sigma_v_m\n";
+        let e = parse_gnss(&format!("{partial}1.0,30.5,114.3,20,0,0,0,1.5,3\n"), p).unwrap_err();
+        assert!(e.to_string().contains("together"), "{e}");
+    }
 
     fn row(t_s: f64, x: f64, heading: f64) -> TruthRow {
         TruthRow {

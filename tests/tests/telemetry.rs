@@ -245,7 +245,7 @@ fn commands_are_bounds_checked() {
             ..fix
         },
         GnssFix {
-            sigma_vel_mmps: 0,
+            sigma_v_mm: 0,
             ..fix
         },
     ] {
@@ -255,6 +255,12 @@ fn commands_are_bounds_checked() {
             "{bad:?}"
         );
     }
+    // A velocity sigma of 0 is a position-only fix: accepted.
+    let position_only = GnssFix {
+        sigma_vel_mmps: 0,
+        ..fix
+    };
+    assert!(enc(at(position_only)).is_ok());
     let n = at(fix).encode(1, &mut p).unwrap();
     assert!(Command::parse(&p[..n - 1]).is_err(), "truncated fix");
 }
