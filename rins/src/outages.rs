@@ -305,11 +305,6 @@ pub fn plots(
             .as_ref()
             .and_then(|m| m.truth.clone())
             .unwrap_or_default();
-        let origin = core_nav::earth::GeoPoint::from_deg(
-            rec.meta.latitude_deg,
-            rec.moving.as_ref().map_or(0.0, |m| m.longitude_deg),
-            rec.meta.height_m,
-        );
         if !rotary {
             map.series.push(Series::line(
                 "truth",
@@ -319,23 +314,7 @@ pub fn plots(
                     .map(|r| (r.p_n_m[1], r.p_n_m[0]))
                     .collect(),
             ));
-            let fixes = rec
-                .moving
-                .as_ref()
-                .and_then(|m| m.gnss.clone())
-                .unwrap_or_default();
-            let mut g = Series::line(
-                "GNSS fixes",
-                fixes
-                    .iter()
-                    .map(|f| {
-                        let d = origin.ned_to(&core_nav::earth::GeoPoint::from_deg(
-                            f.lat_deg, f.lon_deg, f.height_m,
-                        ));
-                        (d.y, d.x)
-                    })
-                    .collect(),
-            );
+            let mut g = Series::line("GNSS fixes", aided::fixes_en(&rec));
             g.markers = true;
             map.series.push(g);
         }

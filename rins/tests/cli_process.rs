@@ -158,9 +158,10 @@ fn demo_runs_and_writes_its_plots() {
 }
 
 #[test]
-fn navigate_gnss_refuses_a_truth_that_does_not_cover_the_run() {
-    // A 30 s drive whose truth.csv is cut at 20 s: an error naming the
-    // file and both spans, not errors measured against nothing.
+fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run() {
+    // A 30 s drive: navigated with its plots; then its truth.csv cut at
+    // 20 s: an error naming the file and both spans, not errors measured
+    // against nothing.
     let dir = std::env::temp_dir().join(format!("rins-cli-truth-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let rec = dir.join("rec");
@@ -176,6 +177,14 @@ fn navigate_gnss_refuses_a_truth_that_does_not_cover_the_run() {
         "--out",
         &s(&rec),
     ]));
+    // Whole, it navigates and draws its plots.
+    let nav = dir.join("nav");
+    let out = ok(&rins(&["navigate", &s(&rec), "--gnss", "--out", &s(&nav)]));
+    assert!(out.contains("wrote 6 plots"), "{out}");
+    for f in ["map.png", "horizontal_error.svg", "consistency.png"] {
+        let len = std::fs::metadata(nav.join(f)).unwrap().len();
+        assert!(len > 10_000, "{f}: {len} bytes");
+    }
     let truth = rec.join("truth.csv");
     let text = std::fs::read_to_string(&truth).unwrap();
     let cut: Vec<&str> = text

@@ -24,7 +24,9 @@ use recording::Recording;
 
 use crate::nav::TrajRow;
 
+mod plots;
 mod summary;
+pub use plots::{fixes_en, plots};
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};
 
 pub use core_nav::aided::{

@@ -144,6 +144,12 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let summary = rins::aided::summary(rec, &run);
     print!("{}", summary.text());
     println!("wrote {}", a.out.join("trajectory.csv").display());
+    let plots = rins::aided::plots(rec, &run, &a.out)?;
+    println!(
+        "wrote {} plots in {} (map, horizontal_error, consistency)",
+        plots.len(),
+        a.out.display()
+    );
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string_pretty(&summary.json())?)?;
     }
