@@ -367,6 +367,11 @@ pub fn stress() -> bool {
     false
 }
 
+/// The board runs no overrun probe: every tick is a real one.
+pub fn overrun_probe() -> bool {
+    false
+}
+
 /// Nothing after navigation on the board.
 pub fn after_nav(_: &mut firmware::tasks::NavTask<'static>) {}
 

@@ -320,9 +320,75 @@ pub fn stress() -> bool {
     true
 }
 
-/// Whether the data-ready stand-in may fire.
+/// Whether the data-ready stand-in may fire: while the replay runs, and
+/// during the overrun probe after it.
 pub fn sensors_on() -> bool {
-    POWERED.load(Ordering::Relaxed) && !DONE.load(Ordering::Relaxed)
+    (POWERED.load(Ordering::Relaxed) && !DONE.load(Ordering::Relaxed))
+        || matches!(PROBE.load(Ordering::Relaxed), PROBE_ARMED | PROBE_RUNNING)
+}
+
+/// The overrun probe's phases: off; armed (the next tick stalls); running
+/// (the ticks after the stall, skipped: the replay is over); draining (no
+/// more edges; a tick still pending is skipped too).
+const PROBE_OFF: u32 = 0;
+const PROBE_ARMED: u32 = 1;
+const PROBE_RUNNING: u32 = 2;
+const PROBE_DRAINING: u32 = 3;
+static PROBE: AtomicU32 = AtomicU32::new(PROBE_OFF);
+/// Ticks seen while the probe runs.
+static PROBE_TICKS: AtomicU32 = AtomicU32::new(0);
+/// The stall: 1,000,000 turns of a `nop` loop (two to four instructions a
+/// turn: 2-4 ms of virtual time), so the next data-ready edge (1 ms) comes
+/// while the tick still runs, whatever a turn costs.
+const PROBE_LOOPS: u32 = 1_000_000;
+
+/// In the tick, during the probe: the armed tick stalls past the next
+/// edge (it must count one overrun); the ticks after it do nothing (the
+/// replay is over). `false` otherwise: the tick runs.
+pub fn overrun_probe() -> bool {
+    match PROBE.load(Ordering::Relaxed) {
+        PROBE_ARMED => {
+            for _ in 0..PROBE_LOOPS {
+                cortex_m::asm::nop();
+            }
+            PROBE.store(PROBE_RUNNING, Ordering::Relaxed);
+            PROBE_TICKS.fetch_add(1, Ordering::Relaxed);
+            true
+        }
+        PROBE_RUNNING | PROBE_DRAINING => {
+            PROBE_TICKS.fetch_add(1, Ordering::Relaxed);
+            true
+        }
+        _ => false,
+    }
+}
+
+/// After the replay: one tick stalled past the next data-ready edge;
+/// returns the overruns it made counted (the tick's own counter is left as
+/// the replay had it, so the budget line is the replay's).
+fn probe_overruns() -> u32 {
+    let before = firmware_stats_overruns();
+    PROBE.store(PROBE_ARMED, Ordering::Relaxed);
+    // Wait (in navigation, below the tick) for the stalled tick and two
+    // more; 10 ms of virtual time at most.
+    let start = EDGES.load(Ordering::Relaxed);
+    while PROBE_TICKS.load(Ordering::Relaxed) < 3
+        && EDGES.load(Ordering::Relaxed).wrapping_sub(start) < 10
+    {
+        cortex_m::asm::wfi();
+    }
+    // No more edges; a tick pended before this runs now (above this task)
+    // and is skipped.
+    PROBE.store(PROBE_DRAINING, Ordering::Relaxed);
+    cortex_m::asm::wfi();
+    let counted = firmware_stats_overruns().wrapping_sub(before);
+
+    STATS.tick_overruns.store(before, Ordering::Relaxed);
+    counted
+}
+
+fn firmware_stats_overruns() -> u32 {
+    STATS.tick_overruns.load(Ordering::Relaxed)
 }
 
 /// One data-ready edge made.
@@ -343,18 +409,21 @@ pub fn after_nav(nav: &mut NavTask<'static>) {
     if !DONE.load(Ordering::Relaxed) {
         return;
     }
+    let edges = EDGES.load(Ordering::Relaxed);
+    // The peak before the probe and the report (whose printing and
+    // profiling are not the board's).
+    let stack = stack_peak();
+    let probe_overruns = probe_overruns();
     let harness = Harness {
-        edges: EDGES.load(Ordering::Relaxed),
+        edges,
         stressed: STRESSED.load(Ordering::Relaxed),
         stress_instructions: STRESS_LOOPS * 4,
         feeds: FEEDS.load(Ordering::Relaxed),
         clock_start: CLOCK_START,
+        probe_overruns,
     };
     let host = cortex_m::interrupt::free(|cs| *TRAILER_BYTES.borrow(cs).borrow())
         .map(|t| decode_outcome(&t));
-    // The peak before the report (whose printing and profiling are not
-    // the board's).
-    let stack = stack_peak();
     crate::report::report(nav, &harness, host, stack);
 }
 
@@ -370,4 +439,7 @@ pub struct Harness {
     pub feeds: u32,
     /// The clock's counter at boot.
     pub clock_start: u32,
+    /// Overruns counted when one tick was stalled past the next edge
+    /// after the replay (one expected).
+    pub probe_overruns: u32,
 }

@@ -75,6 +75,11 @@ pub fn report(nav: &mut NavTask<'static>, h: &Harness, host: Option<Outcome>, st
         stack
     );
     hprintln!(
+        "{}: overrun probe: a tick stalled past the next data-ready edge, {} overrun counted",
+        name,
+        h.probe_overruns
+    );
+    hprintln!(
         "link: {} bytes received through the USART, {} lost",
         l(&s.rx_bytes),
         l(&s.rx_lost)
@@ -131,6 +136,10 @@ pub fn report(nav: &mut NavTask<'static>, h: &Harness, host: Option<Outcome>, st
             l(&s.rx_bytes) > 0 && l(&s.rx_lost) == 0,
         ),
         ("the 64-bit clock crossed the u32 wrap", now < h.clock_start),
+        (
+            "a tick stalled past the next edge is one overrun counted",
+            h.probe_overruns == 1,
+        ),
     ];
     let passed = checks.iter().filter(|c| c.1).count();
     for (check, ok) in checks {
