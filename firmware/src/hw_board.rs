@@ -216,28 +216,7 @@ impl Flash for BoardFlash {
 }
 
 /// The board's peripherals, set up.
-pub struct Board {
-    /// The clock's counter.
-    pub tim5: pac::TIM5,
-    /// The link task's timer.
-    pub tim3: pac::TIM3,
-    /// Unused on the board (the QEMU build's data-ready stand-in).
-    pub tim2: pac::TIM2,
-    /// The telemetry UART.
-    pub usart: pac::USART3,
-    /// The motor.
-    pub motor: BoardMotor,
-    /// The IMU.
-    pub imu: BoardImu,
-    /// The encoder.
-    pub encoder: BoardEncoder,
-    /// The flash.
-    pub flash: BoardFlash,
-    /// The watchdog (not started).
-    pub wdg: BoardWatchdog,
-    /// Whether the IMU came up.
-    pub imu_status: Result<(), Fault>,
-}
+pub type Board = Parts<BoardImu, BoardEncoder, BoardMotor, BoardFlash, BoardWatchdog>;
 
 impl Board {
     /// Clocks, pins and peripherals; the IMU initialised.

@@ -29,6 +29,33 @@ pub static STATS: Stats = Stats {
     samples: core::sync::atomic::AtomicU32::new(0),
 };
 
+/// The peripherals set up, as `init` hands them to the tasks: the timers
+/// and the USART both builds share, and each build's IMU, encoder, motor,
+/// flash and watchdog (`hw_board.rs`: the chip's; `hw_qemu.rs`: the
+/// replay's and RAM's).
+pub struct Parts<Imu, Enc, Mot, Fl, Wdg> {
+    /// The 64-bit clock's counter.
+    pub tim5: pac::TIM5,
+    /// The link task's timer.
+    pub tim3: pac::TIM3,
+    /// The QEMU build's data-ready stand-in (never started on the board).
+    pub tim2: pac::TIM2,
+    /// The telemetry UART (the Feather's TX/RX pins; QEMU's third `-serial`).
+    pub usart: pac::USART3,
+    /// The motor.
+    pub motor: Mot,
+    /// The IMU.
+    pub imu: Imu,
+    /// The encoder.
+    pub encoder: Enc,
+    /// The flash journal's sectors.
+    pub flash: Fl,
+    /// The watchdog (not started).
+    pub wdg: Wdg,
+    /// Whether the IMU came up (`Err`: a stopped board that reports).
+    pub imu_status: Result<(), firmware::faults::Fault>,
+}
+
 /// The telemetry link's baud rate.
 pub const BAUD: u32 = 921_600;
 /// The word the stack is painted with.

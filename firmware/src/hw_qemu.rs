@@ -27,7 +27,6 @@ use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use cortex_m_semihosting::{debug, hprintln, syscall};
-use firmware::faults::Fault;
 use firmware::record::{Flash, FlashError, Sector};
 use firmware::replay::{
     decode, decode_outcome, record_body, Event, Header, Sensors, HEADER, RECORD_HEAD, RECORD_MAX,
@@ -194,28 +193,7 @@ impl Flash for BoardFlash {
 }
 
 /// The QEMU board's peripherals.
-pub struct Board {
-    /// The clock's counter.
-    pub tim5: pac::TIM5,
-    /// The link task's timer.
-    pub tim3: pac::TIM3,
-    /// The data-ready stand-in.
-    pub tim2: pac::TIM2,
-    /// The telemetry UART (the third `-serial`).
-    pub usart: pac::USART3,
-    /// The motor.
-    pub motor: BoardMotor,
-    /// The IMU.
-    pub imu: BoardImu,
-    /// The encoder.
-    pub encoder: BoardEncoder,
-    /// The flash.
-    pub flash: BoardFlash,
-    /// The watchdog.
-    pub wdg: BoardWatchdog,
-    /// The IMU is the replay: up.
-    pub imu_status: Result<(), Fault>,
-}
+pub type Board = Parts<BoardImu, BoardEncoder, BoardMotor, BoardFlash, BoardWatchdog>;
 
 static TUNING: Mutex<RefCell<Option<Tuning>>> = Mutex::new(RefCell::new(None));
 
