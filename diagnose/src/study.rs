@@ -181,8 +181,8 @@ pub fn grade(name: &str, real: Option<&Arc<RealNoise>>) -> Result<Grade, StudyEr
         Some(p) => (p, true),
         None => (name, false),
     };
-    let spec =
-        ImuSpec::by_name(profile).ok_or_else(|| StudyError::UnknownGrade(name.to_string()))?;
+    let spec = hal_sim::sensor::resolve(profile)
+        .map_err(|e| StudyError::UnknownGrade(format!("{name}: {e}")))?;
     let real = if is_real {
         Some(real.cloned().ok_or(StudyError::NoRealNoise)?)
     } else {

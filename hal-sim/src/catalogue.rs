@@ -142,7 +142,7 @@ pub mod bound {
     use core_nav::earth::EARTH_RATE_RADPS;
 
     const DEG: f64 = core::f64::consts::PI / 180.0;
-    const G0: f64 = 9.806_65;
+    use crate::sensor::G0;
 
     /// Earth rate more (or less) than the model has: at most the whole
     /// earth rate either way (the model left it out, or has it with the

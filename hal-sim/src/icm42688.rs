@@ -63,7 +63,7 @@ pub const ACCEL_STARTUP_NS: u64 = 10_000_000;
 /// INT1 pulse length in pulsed mode, ns.
 pub const INT_PULSE_NS: u64 = 100_000;
 
-const G0: f64 = 9.806_65;
+use crate::sensor::G0;
 
 /// Output data rate for an ODR code, Hz (GYRO_ODR / ACCEL_ODR field).
 pub fn odr_hz(code: u8) -> Option<f64> {

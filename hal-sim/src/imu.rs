@@ -23,10 +23,6 @@
 use crate::rng::Rng;
 use nalgebra::{Matrix3, Vector3};
 
-const DEG: f64 = core::f64::consts::PI / 180.0;
-const DPH: f64 = DEG / 3600.0; // deg/h in rad/s
-const G0: f64 = 9.806_65;
-
 /// Magnitudes of one triad's error terms (SI; random terms as 1 sigma).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct TriadSpec {
@@ -101,10 +97,10 @@ impl Default for TempSpec {
 /// A sensor's whole error budget.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImuSpec {
-    /// Profile name (`ideal`, `mtig`, `nav440`, `adis16405`, `icm42688`).
-    pub name: &'static str,
+    /// Profile name (a shipped one's: [`ImuSpec::NAMES`]).
+    pub name: String,
     /// Model name for the recording's meta.
-    pub model: &'static str,
+    pub model: String,
     /// Gyro triad.
     pub gyro: TriadSpec,
     /// Accelerometer triad.
@@ -120,19 +116,18 @@ pub struct ImuSpec {
     pub jitter_s: f64,
     /// Temperature behaviour.
     pub temp: TempSpec,
+    /// How the IMU sits on its base (identity for the simulator's).
+    pub mounting: crate::sensor::Mounting,
 }
 
 impl ImuSpec {
-    /// The profile named `name`.
+    /// The shipped profile named `name` (`sensors/<name>.toml`).
     pub fn by_name(name: &str) -> Option<Self> {
-        Some(match name {
-            "ideal" => Self::ideal(),
-            "mtig" => Self::mtig(),
-            "nav440" => Self::nav440(),
-            "adis16405" => Self::adis16405(),
-            "icm42688" => Self::icm42688(),
-            _ => return None,
-        })
+        crate::sensor::SHIPPED
+            .iter()
+            .any(|(n, _)| *n == name)
+            .then(|| crate::sensor::resolve(name).ok())
+            .flatten()
     }
 
     /// The profile whose `model` text is `model` (a simulated recording's
@@ -144,251 +139,48 @@ impl ImuSpec {
             .find(|p| p.model == model || p.name == model)
     }
 
-    /// Profile names.
-    pub const NAMES: [&'static str; 5] = ["ideal", "mtig", "nav440", "adis16405", "icm42688"];
+    /// The shipped profiles' names.
+    pub const NAMES: [&'static str; 6] = [
+        "ideal",
+        "mtig",
+        "nav440",
+        "adis16405",
+        "icm42688",
+        "icm42605",
+    ];
 
-    /// No error at all.
+    /// The shipped profile `name`; a shipped file that does not read is a
+    /// build defect (every one is read in the sensor module's tests).
+    fn shipped(name: &str) -> Self {
+        match crate::sensor::resolve(name) {
+            Ok(s) => s,
+            Err(e) => panic!("shipped sensor file: {e}"),
+        }
+    }
+
+    /// No error at all (`sensors/ideal.toml`).
     pub fn ideal() -> Self {
-        Self {
-            name: "ideal",
-            model: "ideal",
-            gyro: TriadSpec::default(),
-            accel: TriadSpec::default(),
-            g_sensitivity: 0.0,
-            latency_s: 0.0,
-            accel_latency_s: None,
-            jitter_s: 0.0,
-            temp: TempSpec {
-                warmup_c: 0.0,
-                lsb_c: 0.0,
-                ..TempSpec::default()
-            },
-        }
+        Self::shipped("ideal")
     }
 
-    /// Xsens MTi-G. Xsens "MTi-G User Manual and Technical Documentation"
-    /// (MT0137P rev. H, 2010), Sec. 2.4 sensor specifications: rate of turn
-    /// full scale 300 deg/s, bias stability 1 deg/s, noise density
-    /// 0.05 deg/s/sqrt(Hz), g-sensitivity 0.1 deg/s/g, linearity 0.1 % FS,
-    /// alignment error 0.1 deg; acceleration full scale 50 m/s^2, bias
-    /// stability 0.02 m/s^2, noise 0.002 m/s^2/sqrt(Hz), linearity 0.2 % FS.
-    /// The paper (Du et al. 2016, Sec. 4, Fig. 6): ARW 3.0 deg/sqrt(h), Allan
-    /// minimum about 24 deg/h at 120 s.
+    /// Xsens MTi-G (`sensors/mtig.toml`).
     pub fn mtig() -> Self {
-        let fs_g = 300.0 * DEG;
-        let fs_a = 50.0;
-        Self {
-            name: "mtig",
-            model: "Xsens MTi-G (simulated)",
-            gyro: TriadSpec {
-                bias: 0.2 * DEG, // residual after factory calibration, within the 1 deg/s
-                scale: 1e-3,
-                misalignment: 0.1 * DEG,
-                k2: 0.1e-2 / fs_g / 3.0, // 0.1 % FS as a 3-sigma quadratic bow
-                asymmetry: 2e-4,
-                white: 0.05 * DEG,
-                bias_instability: 24.0 * DPH / 0.62, // Allan floor 24 deg/h (GM peak 0.62 sigma)
-                bi_tau_s: 60.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.005 * DEG,
-                temp_scale: 2e-5,
-                lsb: 300.0 * DEG / 32768.0,
-                full_scale: fs_g,
-                k3: 0.0,
-            },
-            accel: TriadSpec {
-                bias: 0.02,
-                scale: 1e-3,
-                misalignment: 0.1 * DEG,
-                k2: 0.2e-2 / fs_a / 3.0,
-                asymmetry: 0.0,
-                white: 0.002,
-                bias_instability: 0.02 / 3.0,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.5e-3,
-                temp_scale: 2e-5,
-                lsb: fs_a / 32768.0,
-                full_scale: fs_a,
-                k3: 0.0,
-            },
-            g_sensitivity: 0.1 * DEG / G0 / 3.0,
-            latency_s: 0.0,
-            accel_latency_s: None,
-            jitter_s: 0.0,
-            temp: TempSpec::default(),
-        }
+        Self::shipped("mtig")
     }
 
-    /// MEMSIC (Crossbow) NAV440. Datasheet 6020-0035-01 rev. B: rate range
-    /// 200 deg/s, bias stability < 10 deg/h, ARW < 4.5 deg/sqrt(h), scale
-    /// factor < 1 %, nonlinearity < 0.1 % FS; accelerometer range 4 g, bias
-    /// stability < 1 mg, VRW < 0.1 m/s/sqrt(h). The paper (Sec. 4) measured
-    /// ARW about 0.4 deg/sqrt(h) and an Allan minimum of 11 deg/h at 120 s.
+    /// MEMSIC NAV440 (`sensors/nav440.toml`).
     pub fn nav440() -> Self {
-        let fs_g = 200.0 * DEG;
-        let fs_a = 4.0 * G0;
-        Self {
-            name: "nav440",
-            model: "MEMSIC NAV440 (simulated)",
-            gyro: TriadSpec {
-                bias: 0.02 * DEG,
-                scale: 3e-3,
-                misalignment: 0.1 * DEG,
-                k2: 0.1e-2 / fs_g / 3.0,
-                asymmetry: 1e-4,
-                white: 0.4 * DEG / 60.0,
-                bias_instability: 11.0 * DPH / 0.62,
-                bi_tau_s: 60.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.002 * DEG,
-                temp_scale: 1e-5,
-                lsb: 200.0 * DEG / 32768.0,
-                full_scale: fs_g,
-                k3: 0.0,
-            },
-            accel: TriadSpec {
-                bias: 1e-3 * G0,
-                scale: 1e-3,
-                misalignment: 0.1 * DEG,
-                k2: 0.1e-2 / fs_a / 3.0,
-                asymmetry: 0.0,
-                white: 0.1 / 60.0,
-                bias_instability: 1e-3 * G0 / 3.0,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.1e-3 * G0,
-                temp_scale: 1e-5,
-                lsb: fs_a / 32768.0,
-                full_scale: fs_a,
-                k3: 0.0,
-            },
-            g_sensitivity: 0.01 * DEG / G0,
-            latency_s: 0.0,
-            accel_latency_s: None,
-            jitter_s: 0.0,
-            temp: TempSpec::default(),
-        }
+        Self::shipped("nav440")
     }
 
-    /// Analog Devices ADIS16405. Datasheet rev. B, Table 1: gyro 300 deg/s,
-    /// 0.05 deg/s/LSB, in-run bias stability 0.007 deg/s, ARW 2.0
-    /// deg/sqrt(h), initial bias 3 deg/s (before the user's null), linear
-    /// acceleration effect 0.05 deg/s/g, nonlinearity 0.1 %, axis-to-axis
-    /// misalignment 0.05 deg, bias temperature coefficient 0.01 deg/s/degC;
-    /// accelerometer 18 g, 3.33 mg/LSB, in-run bias stability 0.2 mg, VRW
-    /// 0.2 m/s/sqrt(h), initial bias 50 mg, nonlinearity 0.1 %.
+    /// Analog Devices ADIS16405 (`sensors/adis16405.toml`).
     pub fn adis16405() -> Self {
-        let fs_g = 300.0 * DEG;
-        let fs_a = 18.0 * G0;
-        Self {
-            name: "adis16405",
-            model: "Analog Devices ADIS16405 (simulated)",
-            gyro: TriadSpec {
-                bias: 0.5 * DEG,
-                scale: 3e-3,
-                misalignment: 0.05 * DEG,
-                k2: 0.1e-2 / fs_g / 3.0,
-                asymmetry: 1e-4,
-                white: 2.0 * DEG / 60.0,
-                bias_instability: 0.007 * DEG / 0.62,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.01 * DEG,
-                temp_scale: 4e-5,
-                lsb: 0.05 * DEG,
-                full_scale: fs_g,
-                k3: 0.0,
-            },
-            accel: TriadSpec {
-                bias: 50e-3 * G0,
-                scale: 3e-3,
-                misalignment: 0.05 * DEG,
-                k2: 0.1e-2 / fs_a / 3.0,
-                asymmetry: 0.0,
-                white: 0.2 / 60.0,
-                bias_instability: 0.2e-3 * G0 / 0.62,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.3e-3 * G0,
-                temp_scale: 4e-5,
-                lsb: 3.33e-3 * G0,
-                full_scale: fs_a,
-                k3: 0.0,
-            },
-            g_sensitivity: 0.05 * DEG / G0 / 3.0,
-            latency_s: 0.0,
-            accel_latency_s: None,
-            jitter_s: 0.0,
-            temp: TempSpec::default(),
-        }
+        Self::shipped("adis16405")
     }
 
-    /// TDK InvenSense ICM-42688-P (the board's chip). Datasheet DS-000347
-    /// rev. 1.8, Tables 1-2, gyro at +-2000 deg/s: 16.4 LSB/(deg/s),
-    /// sensitivity error +-0.5 %, nonlinearity +-0.1 %, cross-axis +-1.25 %,
-    /// ZRO +-0.5 deg/s, ZRO temperature variation +-0.005 deg/s/degC, noise
-    /// 0.0028 deg/s/sqrt(Hz); accelerometer at +-16 g: 2048 LSB/g,
-    /// sensitivity error +-0.5 %, nonlinearity +-0.1 %, cross-axis +-1 %,
-    /// offset +-20 mg, offset temperature coefficient +-0.15 mg/degC, noise
-    /// 70 ug/sqrt(Hz). The datasheet states no bias instability: 5 deg/h and
-    /// 0.04 mg are assumed (typical published Allan minima for this class).
-    /// Datasheet +- values are taken as 1 sigma.
+    /// TDK ICM-42688-P, the board's chip (`sensors/icm42688.toml`).
     pub fn icm42688() -> Self {
-        let fs_g = 2000.0 * DEG;
-        let fs_a = 16.0 * G0;
-        Self {
-            name: "icm42688",
-            model: "TDK ICM-42688-P (simulated)",
-            gyro: TriadSpec {
-                bias: 0.5 * DEG,
-                scale: 5e-3,
-                misalignment: 1.25e-2 / core::f64::consts::SQRT_2,
-                k2: 1e-3 / fs_g,
-                asymmetry: 2e-4,
-                white: 0.0028 * DEG,
-                bias_instability: 5.0 * DPH / 0.62,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.005 * DEG,
-                temp_scale: 5e-5,
-                lsb: DEG / 16.4,
-                full_scale: fs_g,
-                k3: 0.0,
-            },
-            accel: TriadSpec {
-                bias: 20e-3 * G0,
-                scale: 5e-3,
-                misalignment: 1e-2 / core::f64::consts::SQRT_2,
-                k2: 1e-3 / fs_a,
-                asymmetry: 0.0,
-                white: 70e-6 * G0,
-                bias_instability: 0.04e-3 * G0 / 0.62,
-                bi_tau_s: 100.0,
-                flicker: false,
-                rrw: 0.0,
-                temp_bias: 0.15e-3 * G0,
-                temp_scale: 5e-5,
-                lsb: G0 / 2048.0,
-                full_scale: fs_a,
-                k3: 0.0,
-            },
-            g_sensitivity: 0.005 * DEG / G0,
-            latency_s: 0.0,
-            accel_latency_s: None,
-            jitter_s: 0.0,
-            temp: TempSpec {
-                lsb_c: 1.0 / 132.48,
-                ..TempSpec::default()
-            },
-        }
+        Self::shipped("icm42688")
     }
 }
 

@@ -5,7 +5,8 @@
 //!
 //! - [`world`]: site (core-nav's), base, table geometry, motor, the lab
 //!   console's servo (core-nav's controller), encoder.
-//! - [`imu`]: the sensor error model and datasheet profiles.
+//! - [`imu`]: the sensor error model; [`sensor`]: sensor files
+//!   (`rins-sensor/1`), the shipped datasheet profiles among them.
 //! - [`catalogue`]: the diagnose-v1 effect ids, the one list the
 //!   simulator's knobs, diagnose and the study are keyed by.
 //! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]).
@@ -27,6 +28,7 @@ pub mod dual;
 pub mod icm42688;
 pub mod imu;
 pub mod rng;
+pub mod sensor;
 pub mod sim;
 pub mod twin;
 pub mod world;

@@ -167,7 +167,7 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
         end_sigma_m.push(g.map_or(f64::NAN, |g| g.end_sigma_m));
     }
     Ok(DriveResult {
-        imu: imu.name.into(),
+        imu: imu.name.clone(),
         rotary,
         seed,
         end_error_m,

@@ -67,8 +67,13 @@ fn simulate_with_every_named_flag_writes_a_recording() {
 fn bad_input_gets_a_clear_error() {
     for (args, says) in [
         (
+            vec!["simulate", "--sensor", "nope", "--out", "/tmp/x"],
+            "neither a shipped sensor",
+        ),
+        (
+            // The old flag name stays as a hidden alias.
             vec!["simulate", "--imu", "nope", "--out", "/tmp/x"],
-            "unknown --imu",
+            "neither a shipped sensor",
         ),
         (
             vec!["simulate", "--effect", "nope=1", "--out", "/tmp/x"],

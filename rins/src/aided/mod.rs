@@ -121,12 +121,7 @@ pub struct AidedRun {
 /// An unknown name, or a recording whose model names no known profile.
 pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
     match name {
-        Some(name) => ImuSpec::by_name(name).ok_or_else(|| {
-            anyhow::anyhow!(
-                "--imu-profile {name:?}: one of {}",
-                ImuSpec::NAMES.join(", ")
-            )
-        }),
+        Some(name) => Ok(hal_sim::sensor::resolve(name)?),
         None => rec
             .meta
             .imu_model
@@ -134,7 +129,7 @@ pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
             .and_then(ImuSpec::by_model)
             .ok_or_else(|| {
                 anyhow::anyhow!(
-                    "the recording's [imu] model names no known profile: give --imu-profile ({})",
+                    "the recording's [imu] model names no known profile: give --sensor NAME|FILE ({})",
                     ImuSpec::NAMES.join(", ")
                 )
             }),

@@ -46,8 +46,10 @@ pub struct Args {
     pub no_zupt: bool,
     /// The sensor profile the filter's noise model comes from (default:
     /// the one named by the recording's `[imu] model`).
-    #[arg(long, requires = "gnss")]
-    pub imu_profile: Option<String>,
+    /// A shipped profile's name or a sensor file (`rins-sensor/1`: its
+    /// noise, mounting and antenna lever arm).
+    #[arg(long = "sensor", alias = "imu-profile", requires = "gnss")]
+    pub sensor: Option<String>,
 }
 
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
@@ -126,7 +128,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         recording::moving::truth_covers(truth, first.t_s, last.t_s, &a.rec.join("truth.csv"))
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    let profile = rins::aided::profile(rec, a.imu_profile.as_deref())?;
+    let profile = rins::aided::profile(rec, a.sensor.as_deref())?;
     let opt = rins::aided::AidedOptions {
         profile,
         zupt: !a.no_zupt,

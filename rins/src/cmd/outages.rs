@@ -4,7 +4,6 @@
 use super::write_file;
 use anyhow::{anyhow, Result};
 use hal_sim::drive::DriveKind;
-use hal_sim::imu::ImuSpec;
 use rins::progress_bar;
 use std::path::PathBuf;
 
@@ -14,9 +13,9 @@ pub struct Args {
     /// Drive kind: city or highway.
     #[arg(long, default_value = "city")]
     pub drive: String,
-    /// Sensor profiles, comma-separated.
-    #[arg(long, default_value = "nav440,icm42688")]
-    pub imus: String,
+    /// Sensors, comma-separated: shipped profiles' names or sensor files.
+    #[arg(long = "sensor", alias = "imus", default_value = "nav440,icm42688")]
+    pub sensor: String,
     /// Drives (seeds) per sensor and scheme.
     #[arg(long, default_value_t = 20)]
     pub drives: u64,
@@ -40,12 +39,9 @@ pub fn run(a: &Args) -> Result<()> {
     let kind = DriveKind::parse(&a.drive)
         .ok_or_else(|| anyhow!("--drive {:?}: city or highway", a.drive))?;
     let imus = a
-        .imus
+        .sensor
         .split(',')
-        .map(|n| {
-            ImuSpec::by_name(n.trim())
-                .ok_or_else(|| anyhow!("unknown sensor {n:?} ({})", ImuSpec::NAMES.join(", ")))
-        })
+        .map(|n| Ok(hal_sim::sensor::resolve(n.trim())?))
         .collect::<Result<Vec<_>>>()?;
     let pb = progress_bar("outages");
     let s = rins::outages::run(kind, &imus, a.drives, a.threads, &|f| {

@@ -10,9 +10,10 @@ use std::path::PathBuf;
 /// `rins reproduce`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// IMU: mtig or nav440.
-    #[arg(long)]
-    pub imu: String,
+    /// The sensor: mtig or nav440 (the paper's two, whose published
+    /// figures the report sets beside).
+    #[arg(long = "sensor", alias = "imu")]
+    pub sensor: String,
     /// Monte Carlo runs per mode and rate.
     #[arg(long, default_value_t = 5)]
     pub runs: usize,
@@ -29,29 +30,29 @@ pub struct Args {
 
 /// Runs `rins reproduce`.
 pub fn run(a: &Args) -> Result<()> {
-    if !["mtig", "nav440"].contains(&a.imu.as_str()) {
+    if !["mtig", "nav440"].contains(&a.sensor.as_str()) {
         bail!(
-            "--imu must be mtig or nav440 (the paper's sensors), got {:?}",
-            a.imu
+            "--sensor must be mtig or nav440 (the paper's sensors), got {:?}",
+            a.sensor
         );
     }
     if a.runs == 0 {
         bail!("--runs must be at least 1");
     }
-    let spec = ImuSpec::by_name(&a.imu).ok_or_else(|| anyhow!("unknown imu"))?;
+    let spec = ImuSpec::by_name(&a.sensor).ok_or_else(|| anyhow!("unknown imu"))?;
     let pb = progress_bar("reproduce");
     let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, &mut |f| {
         pb.set_position((f * 1000.0) as u64)
     })?;
     pb.finish_and_clear();
-    print!("{}", repro::text_report(&rows, &a.imu, a.runs));
+    print!("{}", repro::text_report(&rows, &a.sensor, a.runs));
     if let Some(p) = &a.json {
-        let v = serde_json::json!({"format": "rins-reproduce/1", "imu": a.imu, "rows": rows});
+        let v = serde_json::json!({"format": "rins-reproduce/1", "imu": a.sensor, "rows": rows});
         write_file(p, &serde_json::to_string_pretty(&v)?)?;
         println!("wrote {}", p.display());
     }
     if let Some(d) = &a.plots {
-        for chart in report::reproduce_charts(&rows, &a.imu) {
+        for chart in report::reproduce_charts(&rows, &a.sensor) {
             chart.write(d)?;
         }
         println!("plots in {}", d.display());

@@ -18,9 +18,10 @@ pub struct Args {
     /// encoder angles, no quantisation or latency).
     #[arg(long)]
     pub ideal: bool,
-    /// IMU profile: ideal, mtig, nav440, adis16405, icm42688.
-    #[arg(long, default_value = "icm42688")]
-    pub imu: String,
+    /// The sensor: a shipped profile's name (ideal, mtig, nav440,
+    /// adis16405, icm42688, icm42605) or a sensor file (`rins-sensor/1`).
+    #[arg(long = "sensor", alias = "imu", default_value = "icm42688")]
+    pub sensor: String,
     /// Rotation scheme after the static phase.
     #[arg(long, value_enum, default_value = "continuous")]
     pub scheme: SchemeArg,
@@ -97,13 +98,7 @@ impl Args {
         let imu = if self.ideal {
             ImuSpec::ideal()
         } else {
-            ImuSpec::by_name(&self.imu).ok_or_else(|| {
-                anyhow!(
-                    "unknown --imu {:?}; profiles: {}",
-                    self.imu,
-                    ImuSpec::NAMES.join(", ")
-                )
-            })?
+            hal_sim::sensor::resolve(&self.sensor)?
         };
         let rate = self.rate_dps.to_radians();
         let scheme = match self.scheme {

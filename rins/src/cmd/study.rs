@@ -16,11 +16,12 @@ pub struct Args {
     /// Null runs per grade.
     #[arg(long, default_value_t = 100)]
     pub nulls: usize,
-    /// Sensor grades (nav440, mtig, adis16405, icm42688; `<grade>+real`:
+    /// Sensors (shipped names: nav440, mtig, adis16405, icm42688,
+    /// icm42605, or sensor files; `<sensor>+real`:
     /// the grade's deterministic errors on the real noise of --real-noise).
     /// Default: nav440,mtig; with --real-noise, adis16405,adis16405+real.
-    #[arg(long, value_delimiter = ',')]
-    pub grades: Option<Vec<String>>,
+    #[arg(long = "sensor", alias = "grades", value_delimiter = ',')]
+    pub sensor: Option<Vec<String>>,
     /// Study on real noise: the backgrounds of `adis16405+real` (next to
     /// the simulated `adis16405`) come from a real static recording (the
     /// ADIS16405 bench hours, --real-noise-file).
@@ -61,7 +62,7 @@ pub fn run(a: &Args) -> Result<()> {
     } else {
         None
     };
-    let names: Vec<String> = match (&a.grades, &real) {
+    let names: Vec<String> = match (&a.sensor, &real) {
         (Some(g), _) => g.clone(),
         (None, Some(_)) => vec!["adis16405".into(), "adis16405+real".into()],
         (None, None) => vec!["nav440".into(), "mtig".into()],
