@@ -107,7 +107,10 @@ pub fn names() -> Vec<&'static str> {
 /// wrong type, a negative magnitude.
 pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
     let err = |m: String| SensorError(format!("{what}: {m}"));
-    let t: toml::Table = text.parse().map_err(|e| err(format!("{e}")))?;
+    let mut t: toml::Table = text.parse().map_err(|e| err(format!("{e}")))?;
+    if let Some(b) = t.remove("base") {
+        t = inherit(&b, t).map_err(err)?;
+    }
     let mut r = Reader { t: &t, what };
     match r.str_at(None, "format")? {
         Some(f) if f == FORMAT => {}
@@ -166,6 +169,28 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
         temp,
         mounting,
     })
+}
+
+/// A file that starts from a shipped sensor (`base = "icm42605"`): the
+/// shipped file's tables with this file's keys over them (a user's unit of
+/// a known chip: its own mounting, lever arm or measured noise).
+fn inherit(base: &toml::Value, over: toml::Table) -> Result<toml::Table, String> {
+    let name = base.as_str().ok_or("base must be a shipped sensor's name")?;
+    let text = SHIPPED
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| format!("base = {name:?}: not a shipped sensor ({})", names().join(", ")))?;
+    let mut t: toml::Table = text.parse().map_err(|e| format!("sensors/{name}.toml: {e}"))?;
+    for (k, v) in over {
+        match (t.get_mut(&k), v) {
+            (Some(toml::Value::Table(bt)), toml::Value::Table(ot)) => bt.extend(ot),
+            (_, v) => {
+                t.insert(k, v);
+            }
+        }
+    }
+    Ok(t)
 }
 
 /// One quantity of a triad: the keys that may give it (exactly one of
@@ -575,6 +600,21 @@ mod tests {
             assert!(close(s.g_sensitivity, back.g_sensitivity));
             assert_eq!(s.mounting, back.mounting);
         }
+    }
+
+    #[test]
+    fn a_file_can_start_from_a_shipped_sensor() {
+        let text = "format = \"rins-sensor/1\"\nbase = \"icm42605\"\nname = \"walk\"\n[gyro]\nnoise_density_dps_rthz = 0.005\n[mounting]\nimu_to_base_deg = [180, 0, -90]\n";
+        let s = parse(text, "walk.toml").unwrap();
+        let b = resolve("icm42605").unwrap();
+        assert_eq!(s.name, "walk");
+        assert_eq!(s.model, b.model);
+        assert_eq!(s.gyro.white, 0.005 * DEG);
+        assert_eq!(s.gyro.bias, b.gyro.bias);
+        assert_eq!(s.accel, b.accel);
+        assert_eq!(s.mounting.imu_to_base_deg, [180.0, 0.0, -90.0]);
+        let e = parse("format = \"rins-sensor/1\"\nbase = \"nope\"\n", "f").unwrap_err();
+        assert!(e.0.contains("not a shipped sensor"), "{e}");
     }
 
     #[test]

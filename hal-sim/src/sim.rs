@@ -633,6 +633,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                             sigma_h_m: f.sigma[0],
                             sigma_v_m: f.sigma[1],
                             sigma_vel_mps: f.sigma[2],
+                            quality: None,
                         });
                     }
                 }
@@ -747,6 +748,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             }),
             gnss: Some(gnss_rows),
             truth: Some(truth_rows),
+            heading_unknown: false,
         });
     }
     Ok(rec)

@@ -885,7 +885,7 @@ pub fn parse_imu_columns(text: &str, path: &Path) -> Result<(Vec<ImuRow>, bool),
 
 /// The table of a recording without one: at angle 0 at every IMU sample
 /// (recording-v1: a table that never turns).
-fn still_table(imu: &[ImuRow]) -> Vec<TableRow> {
+pub fn still_table(imu: &[ImuRow]) -> Vec<TableRow> {
     imu.iter()
         .map(|r| TableRow {
             t_s: r.t_s,

@@ -37,6 +37,54 @@ pub struct GnssRow {
     pub sigma_v_m: f64,
     /// Velocity 1-sigma, m/s (NaN in a position-only fix).
     pub sigma_vel_mps: f64,
+    /// The receiver's solution type (the optional `quality` column,
+    /// RTKLIB's Q codes), `None` when not given.
+    pub quality: Option<Solution>,
+}
+
+/// A fix's solution type: RTKLIB's `Q` codes, the optional `quality`
+/// column of `gnss.csv` (an extra column recording-v1 readers ignore).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solution {
+    /// Carrier phase, ambiguities fixed (Q = 1).
+    RtkFixed,
+    /// Carrier phase, ambiguities float (Q = 2).
+    RtkFloat,
+    /// SBAS-corrected (Q = 3).
+    Sbas,
+    /// Code differential (Q = 4).
+    Dgnss,
+    /// Single point (Q = 5).
+    Single,
+    /// Precise point positioning (Q = 6).
+    Ppp,
+}
+
+impl Solution {
+    /// RTKLIB's Q code.
+    pub fn q(self) -> u8 {
+        match self {
+            Solution::RtkFixed => 1,
+            Solution::RtkFloat => 2,
+            Solution::Sbas => 3,
+            Solution::Dgnss => 4,
+            Solution::Single => 5,
+            Solution::Ppp => 6,
+        }
+    }
+
+    /// From RTKLIB's Q code (1-6).
+    pub fn from_q(q: u8) -> Option<Self> {
+        Some(match q {
+            1 => Solution::RtkFixed,
+            2 => Solution::RtkFloat,
+            3 => Solution::Sbas,
+            4 => Solution::Dgnss,
+            5 => Solution::Single,
+            6 => Solution::Ppp,
+            _ => return None,
+        })
+    }
 }
 
 impl GnssRow {
@@ -153,6 +201,10 @@ pub struct MovingBase {
     pub gnss: Option<Vec<GnssRow>>,
     /// `truth.csv`, when present (simulated runs).
     pub truth: Option<Vec<TruthRow>>,
+    /// `[base] heading_known = false` (an extra key): the base's heading
+    /// at `t_s = 0` is not known (an imported log whose `[base]` heading
+    /// is a placeholder); navigation finds it from the fixes' velocity.
+    pub heading_unknown: bool,
 }
 
 /// `gnss.csv` columns.
@@ -179,6 +231,10 @@ pub const GNSS_POS_COLS: [&str; 6] = [
     "sigma_h_m",
     "sigma_v_m",
 ];
+
+/// The optional solution-type column (RTKLIB's Q: 1 fixed, 2 float, 3
+/// SBAS, 4 DGNSS, 5 single, 6 PPP).
+pub const GNSS_QUALITY_COL: &str = "quality";
 
 /// The velocity columns, present or absent together.
 const GNSS_VEL_COLS: [&str; 4] = ["vn_mps", "ve_mps", "vd_mps", "sigma_vel_mps"];
@@ -248,11 +304,18 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, Recordi
             })
         }
     };
+    let heading_unknown = match t.get("base").and_then(|b| b.get("heading_known")) {
+        None => false,
+        Some(v) => !v
+            .as_bool()
+            .ok_or_else(|| err(path, None, "[base] heading_known: expected true or false"))?,
+    };
     Ok(Some(MovingBase {
         longitude_deg,
         gnss_meta,
         gnss: None,
         truth: None,
+        heading_unknown,
     }))
 }
 
@@ -270,43 +333,53 @@ pub fn parse_gnss(text: &str, path: &Path) -> Result<Vec<GnssRow>, RecordingErro
         .map(str::trim)
         .collect();
     let has = GNSS_VEL_COLS.map(|c| header.contains(&c));
-    if has.iter().all(|h| !h) {
-        return parse_columns(text, path, &GNSS_POS_COLS)?
-            .into_iter()
-            .map(|(line, v)| {
-                let [t_s, lat_deg, lon_deg, height_m, sh, sv] = v[..] else {
-                    return Err(err(path, Some(line), "wrong number of columns"));
-                };
-                gnss_row(
-                    path,
-                    line,
-                    [t_s, lat_deg, lon_deg, height_m],
-                    [f64::NAN; 3],
-                    [sh, sv, f64::NAN],
-                )
-            })
-            .collect();
-    }
-    if has.iter().any(|h| !h) {
+    let velocity = has.iter().all(|h| *h);
+    if !velocity && has.iter().any(|h| *h) {
         return Err(err(
             path,
             Some(1),
             "the velocity columns vn_mps, ve_mps, vd_mps, sigma_vel_mps are present or absent together",
         ));
     }
-    parse_columns(text, path, &GNSS_COLS)?
+    let mut cols: Vec<&str> = if velocity {
+        GNSS_COLS.to_vec()
+    } else {
+        GNSS_POS_COLS.to_vec()
+    };
+    let quality = header.contains(&GNSS_QUALITY_COL);
+    if quality {
+        cols.push(GNSS_QUALITY_COL);
+    }
+    parse_columns(text, path, &cols)?
         .into_iter()
         .map(|(line, v)| {
-            let [t_s, lat_deg, lon_deg, height_m, vn, ve, vd, sh, sv, sw] = v[..] else {
-                return Err(err(path, Some(line), "wrong number of columns"));
+            let at = |name: &str| {
+                cols.iter()
+                    .position(|c| *c == name)
+                    .and_then(|i| v.get(i).copied())
+                    .unwrap_or(f64::NAN)
             };
-            gnss_row(
+            let q = match quality {
+                false => None,
+                true => {
+                    let q = at(GNSS_QUALITY_COL);
+                    let s = (q.fract() == 0.0 && (1.0..=6.0).contains(&q))
+                        .then(|| Solution::from_q(q as u8))
+                        .flatten();
+                    Some(s.ok_or_else(|| {
+                        err(path, Some(line), format!("quality {q}: RTKLIB's Q, 1 to 6"))
+                    })?)
+                }
+            };
+            let mut row = gnss_row(
                 path,
                 line,
-                [t_s, lat_deg, lon_deg, height_m],
-                [vn, ve, vd],
-                [sh, sv, sw],
-            )
+                ["t_s", "lat_deg", "lon_deg", "height_m"].map(at),
+                ["vn_mps", "ve_mps", "vd_mps"].map(at),
+                ["sigma_h_m", "sigma_v_m", "sigma_vel_mps"].map(at),
+            )?;
+            row.quality = q;
+            Ok(row)
         })
         .collect()
 }
@@ -348,6 +421,7 @@ fn gnss_row(
         sigma_h_m: sh,
         sigma_v_m: sv,
         sigma_vel_mps: sw,
+        quality: None,
     })
 }
 
@@ -379,11 +453,16 @@ pub fn parse_truth(text: &str, path: &Path) -> Result<Vec<TruthRow>, RecordingEr
 /// the reader refuses (recording-v1: the columns go together per file).
 pub fn gnss_text(rows: &[GnssRow]) -> String {
     let position_only = !rows.is_empty() && rows.iter().all(|r| !r.has_velocity());
+    let quality = !rows.is_empty() && rows.iter().all(|r| r.quality.is_some());
     let mut s = if position_only {
         GNSS_POS_COLS.join(",")
     } else {
         GNSS_COLS.join(",")
     };
+    if quality {
+        s.push(',');
+        s.push_str(GNSS_QUALITY_COL);
+    }
     s.push('\n');
     for r in rows {
         let [vn, ve, vd] = r.v_n_mps;
@@ -400,6 +479,10 @@ pub fn gnss_text(rows: &[GnssRow]) -> String {
                 r.t_s, r.lat_deg, r.lon_deg, r.height_m, r.sigma_h_m, r.sigma_v_m, r.sigma_vel_mps
             )
         };
+        if let (true, Some(q)) = (quality, r.quality) {
+            s.pop();
+            let _ = writeln!(s, ",{}", q.q());
+        }
     }
     s
 }
@@ -425,7 +508,10 @@ pub fn truth_text(rows: &[TruthRow]) -> String {
 /// the `[gnss]` table).
 pub fn meta_lines(m: &MovingBase) -> (String, String, String) {
     let site = format!("longitude_deg = {:?}\n", m.longitude_deg);
-    let base = "moving = true\n".to_string();
+    let base = match m.heading_unknown {
+        true => "moving = true\nheading_known = false\n".to_string(),
+        false => "moving = true\n".to_string(),
+    };
     let gnss = m.gnss_meta.map_or(String::new(), |g| {
         let [x, y, z] = g.antenna_b_m;
         format!(
@@ -458,6 +544,20 @@ mod tests {
             ..rows[0]
         };
         assert!(with.to_fix().has_velocity());
+    }
+
+    #[test]
+    fn the_solution_type_column_reads_and_writes_back() {
+        let p = Path::new("walk/gnss.csv");
+        let text = "t_s,lat_deg,lon_deg,height_m,sigma_h_m,sigma_v_m,quality\n1.0,40.1,-105.1,1580.0,0.014,0.01,1\n1.25,40.1,-105.1,1580.0,0.014,0.01,2\n";
+        let rows = parse_gnss(text, p).unwrap();
+        assert_eq!(rows[0].quality, Some(Solution::RtkFixed));
+        assert_eq!(rows[1].quality, Some(Solution::RtkFloat));
+        let back = parse_gnss(&gnss_text(&rows), p).unwrap();
+        assert_eq!(back.iter().map(|r| r.quality).collect::<Vec<_>>(), rows.iter().map(|r| r.quality).collect::<Vec<_>>());
+        let bad = text.replace(",2\n", ",7\n");
+        let e = parse_gnss(&bad, p).unwrap_err().to_string();
+        assert!(e.contains("gnss.csv:3") && e.contains("quality"), "{e}");
     }
 
     #[test]

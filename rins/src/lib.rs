@@ -11,6 +11,7 @@ pub mod allan;
 pub mod calibrate;
 pub mod demo;
 pub mod diagnose;
+pub mod import;
 pub mod link;
 pub mod nav;
 pub mod outages;

@@ -21,6 +21,8 @@ enum Tool {
     Calibrate(cmd::calibrate::Args),
     /// Navigate a recording: trajectory.csv (rins-trajectory/1) and plots.
     Navigate(cmd::navigate::Args),
+    /// Import a real log (an RTKLIB solution plus an IMU CSV) as a recording.
+    Import(cmd::import::Args),
     /// Allan deviation of the six channels, noise fit, JSON and plot.
     Allan(cmd::allan::Args),
     /// The paper's experiment in simulation, beside our best and the noise floor.
@@ -55,6 +57,7 @@ fn main() -> Result<()> {
         Tool::Simulate(a) => cmd::simulate::run(&a),
         Tool::Calibrate(a) => cmd::calibrate::run(&a),
         Tool::Navigate(a) => cmd::navigate::run(&a),
+        Tool::Import(a) => cmd::import::run(&a),
         Tool::Allan(a) => cmd::allan::run(&a),
         Tool::Reproduce(a) => cmd::reproduce::run(&a),
         Tool::Demo(a) => cmd::demo::run(&a),

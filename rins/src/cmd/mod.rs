@@ -6,6 +6,7 @@ pub mod calibrate;
 pub mod command;
 pub mod demo;
 pub mod diagnose;
+pub mod import;
 pub mod navigate;
 pub mod outages;
 pub mod qemu_replay;

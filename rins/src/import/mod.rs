@@ -1,0 +1,237 @@
+//! Importers (`rins import`): real logs into recording-v1 with its
+//! moving-base files. An IMU fixed to the vehicle is a recording with no
+//! table; its samples are written in the base frame `b` through the
+//! sensor file's mounting (`C_s^b`), and the antenna's lever arm goes to
+//! `[gnss] antenna_b_m`.
+//!
+//! - [`rtklib`]: an RTKLIB `.pos` solution plus an IMU CSV described by a
+//!   column map ([`columns`]), its clock put on GPST through an RTKLIB
+//!   `.tag` file ([`tag`]) or already GPST.
+
+pub mod columns;
+pub mod rtklib;
+pub mod tag;
+
+use anyhow::{anyhow, bail, Result};
+use hal_sim::imu::ImuSpec;
+use nalgebra::Vector3;
+use recording::moving::{GnssMeta, GnssRow, MovingBase};
+use recording::{ImuRow, Meta, Recording, SampleKind, TableSource};
+use std::path::PathBuf;
+
+/// What `rins import rtklib` takes.
+#[derive(Clone, Debug)]
+pub struct RtklibInput {
+    /// The solution file.
+    pub pos: PathBuf,
+    /// The IMU CSV.
+    pub imu: PathBuf,
+    /// Its column map.
+    pub columns: PathBuf,
+    /// Its RTKLIB tag file (default: the IMU file's name + `.tag`).
+    pub imu_tag: Option<PathBuf>,
+    /// Added to the solution's heights, m (the geoid's height above the
+    /// ellipsoid when they are above mean sea level).
+    pub geoid_m: f64,
+    /// The sensor (its model name, mounting and antenna lever arm).
+    pub sensor: ImuSpec,
+}
+
+/// What an import counted and found.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ImportReport {
+    /// IMU samples written.
+    pub imu_samples: usize,
+    /// Rows that repeated the previous one (a logger polling faster than
+    /// its sensor), dropped.
+    pub imu_repeats: usize,
+    /// The log's cut first / last line, dropped.
+    pub cut_first: bool,
+    /// See `cut_first`.
+    pub cut_last: bool,
+    /// The sensor's rate on the log's clock, Hz.
+    pub imu_rate_found_hz: f64,
+    /// The logger clock's drift against GPST, ppm (tag files).
+    pub clock_drift_ppm: Option<f64>,
+    /// The logger clock's offset floor's RMS about its line, ms.
+    pub clock_floor_rms_ms: Option<f64>,
+    /// Fixes written.
+    pub fixes: usize,
+    /// Fixes outside the IMU's span, dropped.
+    pub fixes_outside: usize,
+    /// Fixes per solution type (RTKLIB's Q 1..6).
+    pub fixes_by_q: [usize; 6],
+    /// GPST (Unix-epoch scale) of the recording's `t_s = 0`.
+    pub t0_gpst: f64,
+}
+
+/// The IMU samples' GPST (s) and how the clock was found.
+fn sample_times(
+    map: &columns::ColumnMap,
+    csv: &columns::ImuCsv,
+    input: &RtklibInput,
+    rep: &mut ImportReport,
+) -> Result<Vec<f64>> {
+    let stamps = || csv.samples.iter().map(|s| s.stamp_s);
+    if map.source == columns::TimeSource::Gpst {
+        return Ok(stamps().collect());
+    }
+    let tag_path = input.imu_tag.clone().unwrap_or_else(|| {
+        let mut p = input.imu.clone().into_os_string();
+        p.push(".tag");
+        PathBuf::from(p)
+    });
+    let tag = tag::TagFile::read(&tag_path)?;
+    let crlf = match tag.stream_len() {
+        n if n == csv.len_crlf => true,
+        n if n == csv.len_lf => false,
+        n => bail!(
+            "{}: the tags count {n} bytes; {} holds {} (or {} with CRLF line ends): not its tag file",
+            tag_path.display(),
+            input.imu.display(),
+            csv.len_lf,
+            csv.len_crlf
+        ),
+    };
+    let ends: Vec<u64> = csv.rows.iter().map(|r| if crlf { r.2 } else { r.1 }).collect();
+    let received = tag.receive_times(&ends);
+    let row_stamps: Vec<f64> = csv.rows.iter().map(|r| r.0).collect();
+    let clock = tag::ClockMap::fit(&row_stamps, &received)?;
+    rep.clock_drift_ppm = Some(clock.drift * 1e6);
+    rep.clock_floor_rms_ms = Some(clock.floor_rms_s * 1e3);
+    Ok(stamps().map(|s| clock.gpst(s)).collect())
+}
+
+/// Imports an RTKLIB solution and an IMU CSV.
+///
+/// # Errors
+/// What the readers refuse (naming file and line); a tag file that does
+/// not belong to the IMU file; no fix inside the IMU's span.
+pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
+    let map = columns::ColumnMap::read(&input.columns)?;
+    let csv = map.read_csv(&input.imu)?;
+    let epochs = rtklib::read_pos(&input.pos, input.geoid_m)?;
+    let mut rep = ImportReport {
+        imu_repeats: csv.repeats,
+        cut_first: csv.cut_first,
+        cut_last: csv.cut_last,
+        ..ImportReport::default()
+    };
+    let t_gpst = sample_times(&map, &csv, input, &mut rep)?;
+    let (t0, t_end) = match (t_gpst.first(), t_gpst.last()) {
+        (Some(a), Some(b)) => (*a, *b),
+        _ => bail!("{}: no IMU samples", input.imu.display()),
+    };
+    rep.t0_gpst = t0;
+    rep.imu_rate_found_hz = (t_gpst.len() - 1) as f64 / (t_end - t0);
+    let c_s_b = input.sensor.mounting.c_s_b();
+    let imu: Vec<ImuRow> = csv
+        .samples
+        .iter()
+        .zip(&t_gpst)
+        .map(|(s, t)| {
+            let g = c_s_b * Vector3::from(s.gyro_radps);
+            let a = c_s_b * Vector3::from(s.accel_mps2);
+            ImuRow {
+                t_s: t - t0,
+                gyro_radps: [g.x, g.y, g.z],
+                accel_mps2: [a.x, a.y, a.z],
+                temp_c: None,
+            }
+        })
+        .collect();
+    rep.imu_samples = imu.len();
+    let mut gnss: Vec<GnssRow> = vec![];
+    for e in &epochs {
+        if e.t_gpst < t0 || e.t_gpst > t_end {
+            rep.fixes_outside += 1;
+            continue;
+        }
+        if let Some(q) = e.row.quality {
+            if let Some(c) = rep.fixes_by_q.get_mut(usize::from(q.q()) - 1) {
+                *c += 1;
+            }
+        }
+        gnss.push(GnssRow {
+            t_s: e.t_gpst - t0,
+            ..e.row
+        });
+    }
+    rep.fixes = gnss.len();
+    let first = gnss
+        .first()
+        .ok_or_else(|| anyhow!("{}: no fix inside the IMU's span", input.pos.display()))?;
+    let rate_hz = match (gnss.len(), gnss.last()) {
+        (n, Some(l)) if n > 1 && l.t_s > first.t_s => ((n - 1) as f64 / (l.t_s - first.t_s)).round().max(1.0),
+        _ => 1.0,
+    };
+    let meta = Meta {
+        description: Some(format!(
+            "imported by rins import rtklib: {} + {} ({})",
+            input.pos.display(),
+            input.imu.display(),
+            input.columns.display()
+        )),
+        latitude_deg: first.lat_deg,
+        height_m: first.height_m,
+        gravity_mps2: None,
+        heading_deg: 0.0,
+        pitch_deg: 0.0,
+        roll_deg: 0.0,
+        imu_model: Some(input.sensor.model.clone()),
+        imu_rate_hz: map.rate_hz,
+        imu_sample: SampleKind::Instantaneous,
+        axis: core_nav::table::Axis::Z,
+        encoder_rate_hz: map.rate_hz,
+        table_source: TableSource::None,
+    };
+    let moving = MovingBase {
+        longitude_deg: first.lon_deg,
+        gnss_meta: Some(GnssMeta {
+            antenna_b_m: input.sensor.mounting.antenna_b_m.unwrap_or([0.0; 3]),
+            rate_hz,
+        }),
+        gnss: Some(gnss),
+        truth: None,
+        heading_unknown: true,
+    };
+    let rec = Recording {
+        table: recording::still_table(&imu),
+        meta,
+        imu,
+        moving: Some(moving),
+        gyro_only: false,
+    };
+    Ok((rec, rep))
+}
+
+/// What an import did, for a person.
+pub fn report_text(r: &ImportReport, out: &std::path::Path) -> String {
+    let q = ["fixed", "float", "SBAS", "DGNSS", "single", "PPP"];
+    let by_q: Vec<String> = r
+        .fixes_by_q
+        .iter()
+        .zip(q)
+        .filter(|(n, _)| **n > 0)
+        .map(|(n, name)| format!("{n} {name}"))
+        .collect();
+    let mut s = format!(
+        "wrote {}: {} IMU samples ({:.2} Hz on the log's clock), {} fixes ({})\n",
+        out.display(),
+        r.imu_samples,
+        r.imu_rate_found_hz,
+        r.fixes,
+        by_q.join(", ")
+    );
+    s.push_str(&format!(
+        "dropped: {} repeated IMU rows (the logger polled faster than the sensor), cut first line: {}, cut last line: {}, {} fixes outside the IMU's span\n",
+        r.imu_repeats, r.cut_first, r.cut_last, r.fixes_outside
+    ));
+    if let (Some(d), Some(f)) = (r.clock_drift_ppm, r.clock_floor_rms_ms) {
+        s.push_str(&format!(
+            "logger clock on GPST through the time tags: drift {d:+.1} ppm, delivery floor RMS {f:.2} ms\n"
+        ));
+    }
+    s.push_str("the base's heading at the start is not known: navigate --gnss finds it from the fixes' velocity");
+    s
+}
