@@ -175,13 +175,22 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
 /// shipped file's tables with this file's keys over them (a user's unit of
 /// a known chip: its own mounting, lever arm or measured noise).
 fn inherit(base: &toml::Value, over: toml::Table) -> Result<toml::Table, String> {
-    let name = base.as_str().ok_or("base must be a shipped sensor's name")?;
+    let name = base
+        .as_str()
+        .ok_or("base must be a shipped sensor's name")?;
     let text = SHIPPED
         .iter()
         .find(|(n, _)| *n == name)
         .map(|(_, t)| *t)
-        .ok_or_else(|| format!("base = {name:?}: not a shipped sensor ({})", names().join(", ")))?;
-    let mut t: toml::Table = text.parse().map_err(|e| format!("sensors/{name}.toml: {e}"))?;
+        .ok_or_else(|| {
+            format!(
+                "base = {name:?}: not a shipped sensor ({})",
+                names().join(", ")
+            )
+        })?;
+    let mut t: toml::Table = text
+        .parse()
+        .map_err(|e| format!("sensors/{name}.toml: {e}"))?;
     for (k, v) in over {
         match (t.get_mut(&k), v) {
             (Some(toml::Value::Table(bt)), toml::Value::Table(ot)) => bt.extend(ot),

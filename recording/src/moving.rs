@@ -554,7 +554,10 @@ mod tests {
         assert_eq!(rows[0].quality, Some(Solution::RtkFixed));
         assert_eq!(rows[1].quality, Some(Solution::RtkFloat));
         let back = parse_gnss(&gnss_text(&rows), p).unwrap();
-        assert_eq!(back.iter().map(|r| r.quality).collect::<Vec<_>>(), rows.iter().map(|r| r.quality).collect::<Vec<_>>());
+        assert_eq!(
+            back.iter().map(|r| r.quality).collect::<Vec<_>>(),
+            rows.iter().map(|r| r.quality).collect::<Vec<_>>()
+        );
         let bad = text.replace(",2\n", ",7\n");
         let e = parse_gnss(&bad, p).unwrap_err().to_string();
         assert!(e.contains("gnss.csv:3") && e.contains("quality"), "{e}");

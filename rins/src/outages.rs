@@ -152,6 +152,9 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
         zupt: true,
         gate_sigma: 6.0,
         f32: false,
+        outages: vec![],
+        floor: Default::default(),
+        gnss_velocity: true,
     };
     let run = aided::navigate(&rec, &opt, &mut |_| {})?;
     let s = aided::summary(&rec, &run);
@@ -297,6 +300,9 @@ pub fn plots(
                 zupt: true,
                 gate_sigma: 6.0,
                 f32: false,
+                outages: vec![],
+                floor: Default::default(),
+                gnss_velocity: true,
             },
             &mut |_| {},
         )?;

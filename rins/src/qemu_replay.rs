@@ -73,6 +73,9 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
             zupt: true,
             gate_sigma: 6.0,
             f32: true,
+            outages: vec![],
+            floor: Default::default(),
+            gnss_velocity: true,
         };
         let lever = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
         header.aided = Some((

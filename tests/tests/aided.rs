@@ -21,6 +21,9 @@ fn opts(p: &ImuSpec) -> AidedOptions {
         zupt: true,
         gate_sigma: 6.0,
         f32: false,
+        outages: vec![],
+        floor: Default::default(),
+        gnss_velocity: true,
     }
 }
 
@@ -28,6 +31,9 @@ fn opts(p: &ImuSpec) -> AidedOptions {
 fn navigate_f32(rec: &Recording, p: &ImuSpec) -> aided::AidedRun {
     let o = AidedOptions {
         f32: true,
+        outages: vec![],
+        floor: Default::default(),
+        gnss_velocity: true,
         ..opts(p)
     };
     aided::navigate(rec, &o, &mut |_| {}).unwrap()

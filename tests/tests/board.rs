@@ -159,6 +159,9 @@ fn the_boards_filter_is_the_icm42688_profiles() {
         zupt: true,
         gate_sigma: 6.0,
         f32: true,
+        outages: vec![],
+        floor: Default::default(),
+        gnss_velocity: true,
     };
     let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o);
     assert_eq!(firmware::tuning::ICM42688_FILTER, want);

@@ -19,11 +19,13 @@ use core_nav::strapdown::ImuSample;
 use core_nav::table::{Axis, TableAngle};
 use hal_sim::imu::ImuSpec;
 use nalgebra::{Quaternion, Vector3};
+use recording::moving::GnssRow;
 use recording::track::EncoderTrack;
 use recording::Recording;
 
 use crate::nav::TrajRow;
 
+pub mod align;
 mod plots;
 mod summary;
 pub use plots::{fixes_en, plots};
@@ -44,6 +46,62 @@ pub struct AidedOptions {
     pub gate_sigma: f64,
     /// Mechanization and filter in f32, as on the board (else f64).
     pub f32: bool,
+    /// GNSS outages cut in: (start s, length s); the fixes inside are
+    /// withheld from the filter (and kept as the reference).
+    pub outages: Vec<(f64, f64)>,
+    /// The least 1-sigma a fix is taken with, by solution type.
+    pub floor: ReceiverFloor,
+    /// Use the fixes' velocity (else position only).
+    pub gnss_velocity: bool,
+}
+
+/// The least horizontal 1-sigma (m) a fix of each solution type is taken
+/// with (vertical: twice it): receivers report cm-level sigmas even while
+/// their carrier solution is float. A fix without a solution type is
+/// taken as reported.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReceiverFloor {
+    /// Carrier phase, ambiguities fixed.
+    pub rtk_fixed_m: f64,
+    /// Carrier phase, ambiguities float.
+    pub rtk_float_m: f64,
+    /// Code differential, SBAS, PPP.
+    pub dgnss_m: f64,
+    /// Single point.
+    pub single_m: f64,
+}
+
+impl Default for ReceiverFloor {
+    /// Typical accuracies of each solution type (RTKLIB manual and
+    /// u-blox F9/X20 specifications: RTK fixed 1-2 cm, float decimetres,
+    /// DGNSS/SBAS about half a metre, single point 1.5 m).
+    fn default() -> Self {
+        Self {
+            rtk_fixed_m: 0.02,
+            rtk_float_m: 0.3,
+            dgnss_m: 0.5,
+            single_m: 1.5,
+        }
+    }
+}
+
+impl ReceiverFloor {
+    /// `row` with its sigmas raised to the floor of its solution type.
+    pub fn apply(&self, row: &GnssRow) -> GnssRow {
+        use recording::moving::Solution as S;
+        let h = match row.quality {
+            None => return *row,
+            Some(S::RtkFixed) => self.rtk_fixed_m,
+            Some(S::RtkFloat) => self.rtk_float_m,
+            Some(S::Dgnss | S::Sbas | S::Ppp) => self.dgnss_m,
+            Some(S::Single) => self.single_m,
+        };
+        GnssRow {
+            sigma_h_m: row.sigma_h_m.max(h),
+            sigma_v_m: row.sigma_v_m.max(2.0 * h),
+            ..*row
+        }
+    }
 }
 
 /// One output row: trajectory-v1 and the filter's 1-sigma.
@@ -112,6 +170,47 @@ pub struct AidedRun {
     /// runs), once a second: (time s, NEES, degrees of freedom: north,
     /// east, and the three velocities).
     pub nees: Vec<(f64, f64, usize)>,
+    /// The alignment, when the start attitude was not given.
+    pub aligned: Option<align::Alignment>,
+    /// The outages cut in: (start s, length s).
+    pub outages_cut: Vec<(f64, f64)>,
+}
+
+/// The fixes the filter gets: those outside the outages cut in, each with
+/// its sigmas raised to its solution type's floor, and without velocity
+/// when the options say so.
+fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
+    fixes
+        .iter()
+        .filter(|f| {
+            !opt.outages
+                .iter()
+                .any(|(a, l)| f.t_s >= *a && f.t_s < a + l)
+        })
+        .map(|f| {
+            let mut f = opt.floor.apply(f);
+            if !opt.gnss_velocity {
+                f.v_n_mps = [f64::NAN; 3];
+                f.sigma_vel_mps = f64::NAN;
+            }
+            f
+        })
+        .collect()
+}
+
+/// The correlated GNSS error's 1-sigma (horizontal, vertical, m): its
+/// share [`GNSS_CORR_SHARE`] of the fixes' median (floored) variance, so
+/// that an RTK receiver's centimetres and a phone's metres each get their
+/// own (hal-sim's receiver, 1.5 m and 3 m, gives the 1.06 m and 2.12 m
+/// the board's tuning holds).
+pub fn gnss_corr_sigma(fixes: &[GnssRow]) -> [f64; 2] {
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(1.0)
+    };
+    let h = median(fixes.iter().map(|f| f.sigma_h_m).collect());
+    let v = median(fixes.iter().map(|f| f.sigma_v_m).collect());
+    [GNSS_CORR_SHARE.sqrt() * h, GNSS_CORR_SHARE.sqrt() * v]
 }
 
 /// The sensor profile for the filter: `name` (one of hal-sim's profiles)
@@ -228,38 +327,69 @@ fn navigate_t<T: Real>(
             f_s: Vector3::from(r.accel_mps2).map(T::lit),
         }
     };
-    let q_b_n0 = euler_to_quat(&Euler::<f64>::from_deg(
-        m.roll_deg,
-        m.pitch_deg,
-        m.heading_deg,
-    ));
-    let q_b_n0 = Quaternion::from(q_b_n0.coords.map(T::lit));
+    let fixes = prepared_fixes(fixes, opt);
+    let g = m.site().gravity_mps2;
+    let (euler, initial, aligned) = match mv.heading_unknown {
+        false => (
+            Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg),
+            INITIAL_SIGMA,
+            None,
+        ),
+        true => {
+            let a = align::align(rec, &fixes, g)?;
+            let [roll, pitch, heading] = a.euler_rad;
+            let initial = InitialSigma {
+                level_rad: a.level_sigma_rad,
+                heading_rad: a.heading_sigma_rad,
+                ..INITIAL_SIGMA
+            };
+            (
+                Euler {
+                    roll,
+                    pitch,
+                    heading,
+                },
+                initial,
+                Some(a),
+            )
+        }
+    };
+    let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
     let t0 = rec.imu[0].t_s;
+    let mut cfg = aided_config(m.axis, lever_b, opt);
+    cfg.initial = initial;
+    cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&fixes);
     let mut an = AidedNav::<T>::new(
         crate::nav::strapdown_config(m, false),
         origin,
         &q_b_n0,
         &table(t0),
         &sample(0),
-        aided_config(m.axis, lever_b, opt),
+        cfg,
     )
     .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
     let earth = *an.nav().earth();
     let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
-    let mut run = AidedRun::default();
+    let mut run = AidedRun {
+        aligned,
+        ..AidedRun::default()
+    };
     let truth = mv.truth.as_deref().unwrap_or(&[]);
     let mut next_fix = 0usize;
     let n = rec.imu.len();
     let half = 0.5 / m.imu_rate_hz;
     for k in 0..n {
         let t = rec.imu[k].t_s;
-        // GNSS: fixes nearest this sample go in before its step.
+        // GNSS: fixes nearest this sample (up to the midpoint to the next:
+        // a logger's samples need not be evenly spaced) go in before its
+        // step.
+        let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
         while let Some(f) = fixes.get(next_fix) {
-            if f.t_s > t + half {
+            if f.t_s > upto {
                 break;
             }
             next_fix += 1;
-            if f.t_s < t - half || k == 0 {
+            if k == 0 {
                 run.refused += 1; // before the run's first step
                 continue;
             }
@@ -340,6 +470,7 @@ fn navigate_t<T: Real>(
     run.zupts = an.counts.zupts;
     run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
+    run.outages_cut = opt.outages.clone();
     progress(1.0);
     Ok(run)
 }

@@ -7,6 +7,9 @@ use recording::Recording;
 /// What a run shows against the truth and its own statistics.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct AidedSummary {
+    /// What the errors are measured against: "truth" (truth.csv),
+    /// "receiver" (a real log's own fixes), "none".
+    pub reference: &'static str,
     /// Horizontal error rms while fixes arrive, m (with truth).
     pub h_rms_with_gnss_m: Option<f64>,
     /// Per GNSS gap longer than 2 fix intervals: start s, length s,
@@ -49,6 +52,38 @@ pub struct OutageError {
     pub max_error_m: Option<f64>,
     /// The filter's horizontal 1-sigma (rss of north and east) at its end, m.
     pub end_sigma_m: f64,
+    /// The share of its samples whose horizontal error is inside 3 times
+    /// the filter's horizontal 1-sigma (outages cut in, with a reference).
+    pub within_3_sigma: Option<f64>,
+}
+
+/// The receiver's solution as a reference: each fix's position as offsets
+/// from the site (NED, m) and its velocity (the antenna's, a lever arm
+/// from the base's point; attitude unknown).
+fn receiver_reference(rec: &Recording) -> Vec<recording::moving::TruthRow> {
+    let Some(mv) = rec.moving.as_ref() else {
+        return vec![];
+    };
+    let origin = core_nav::earth::GeoPoint::from_deg(
+        rec.meta.latitude_deg,
+        mv.longitude_deg,
+        rec.meta.height_m,
+    );
+    mv.gnss
+        .iter()
+        .flatten()
+        .map(|f| {
+            let d = origin.ned_to(&core_nav::earth::GeoPoint::from_deg(
+                f.lat_deg, f.lon_deg, f.height_m,
+            ));
+            recording::moving::TruthRow {
+                t_s: f.t_s,
+                p_n_m: [d.x, d.y, d.z],
+                v_n_mps: f.v_n_mps,
+                euler_deg: [f64::NAN; 3],
+            }
+        })
+        .collect()
 }
 
 /// Two-sided 95 % bounds of a chi-square with `k` degrees of freedom
@@ -62,11 +97,22 @@ pub fn chi2_95_bounds(k: usize) -> (f64, f64) {
 
 /// The summary of `run` on `rec` (errors only where `truth.csv` exists).
 pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
-    let truth = rec
+    let given = rec
         .moving
         .as_ref()
         .and_then(|m| m.truth.as_deref())
         .unwrap_or(&[]);
+    // No truth (a real log): the receiver's own solution, every fix (those
+    // withheld in the outages cut in among them), is the reference.
+    let from_fixes = match given.is_empty() {
+        true => receiver_reference(rec),
+        false => vec![],
+    };
+    let truth = if given.is_empty() {
+        &from_fixes[..]
+    } else {
+        given
+    };
     // The truth at each row's time (interpolated: a truth file need not
     // share the trajectory's rows).
     let h_err = |i: usize| -> Option<f64> {
@@ -93,10 +139,41 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         .map_or(1.0, |g| g.rate_hz);
     // With GNSS: rows within one fix interval after a fix.
     let mut sq = vec![];
+    s.reference = match (given.is_empty(), truth.is_empty()) {
+        (false, _) => "truth",
+        (true, false) => "receiver",
+        (true, true) => "none",
+    };
+    for &(a, l) in &run.outages_cut {
+        let inside: Vec<usize> = (0..run.rows.len())
+            .filter(|i| run.rows[*i].traj.t_s >= a && run.rows[*i].traj.t_s < a + l)
+            .collect();
+        let errs: Vec<(usize, f64)> = inside
+            .iter()
+            .filter_map(|i| h_err(*i).map(|e| (*i, e)))
+            .collect();
+        let sigma = |i: usize| {
+            run.rows
+                .get(i)
+                .map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1]))
+        };
+        let end = errs.last().copied();
+        s.outages.push(OutageError {
+            start_s: a,
+            len_s: l,
+            end_error_m: end.map(|e| e.1),
+            max_error_m: errs.iter().map(|e| e.1).reduce(f64::max),
+            end_sigma_m: end.map_or(0.0, |e| sigma(e.0)),
+            within_3_sigma: (!errs.is_empty()).then(|| {
+                errs.iter().filter(|(i, e)| *e <= 3.0 * sigma(*i)).count() as f64
+                    / errs.len() as f64
+            }),
+        });
+    }
     for w in fix_rows.windows(2) {
         let (a, b) = (w[0], w[1]);
         let gap = run.rows[b].traj.t_s - run.rows[a].traj.t_s;
-        if gap > 2.0 / rate {
+        if gap > 2.0 / rate && run.outages_cut.is_empty() {
             let errs: Vec<f64> = (a + 1..b).filter_map(h_err).collect();
             let last = run.rows.get(b - 1);
             s.outages.push(OutageError {
@@ -105,8 +182,9 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
                 end_error_m: h_err(b - 1),
                 max_error_m: errs.iter().copied().reduce(f64::max),
                 end_sigma_m: last.map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1])),
+                within_3_sigma: None,
             });
-        } else {
+        } else if gap <= 2.0 / rate {
             sq.extend((a..b).filter_map(h_err).map(|e| e * e));
         }
     }
@@ -148,18 +226,27 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
 impl AidedSummary {
     /// For a person.
     pub fn text(&self) -> String {
-        let mut o = String::new();
+        let mut o = format!(
+            "errors against: {}\n",
+            match self.reference {
+                "truth" => "truth.csv",
+                "receiver" =>
+                    "the receiver's own solution (no truth.csv; withheld fixes inside the outages)",
+                _ => "nothing (no truth.csv, no fixes)",
+            }
+        );
         if let Some(h) = self.h_rms_with_gnss_m {
             o += &format!("horizontal error with GNSS: {h:.2} m rms\n");
         }
         for g in &self.outages {
             o += &format!(
-                "GNSS outage at {:.0} s for {:.0} s: horizontal error at its end {} (largest {}), filter 1-sigma {:.1} m\n",
+                "GNSS outage at {:.0} s for {:.0} s: horizontal error at its end {} (largest {}), filter 1-sigma {:.1} m{}\n",
                 g.start_s,
                 g.len_s,
-                g.end_error_m.map_or("(no truth)".into(), |e| format!("{e:.1} m")),
-                g.max_error_m.map_or("-".into(), |e| format!("{e:.1} m")),
-                g.end_sigma_m
+                g.end_error_m.map_or("(no reference)".into(), |e| format!("{e:.2} m")),
+                g.max_error_m.map_or("-".into(), |e| format!("{e:.2} m")),
+                g.end_sigma_m,
+                g.within_3_sigma.map_or(String::new(), |w| format!(", {:.0} % of it inside 3 sigma", 100.0 * w))
             );
         }
         o += &format!(

@@ -60,7 +60,10 @@ pub fn run(a: &Args) -> Result<()> {
 
 fn rtklib(a: &RtklibArgs) -> Result<()> {
     if a.out.exists() {
-        bail!("{} exists: a recording is never rewritten in place", a.out.display());
+        bail!(
+            "{} exists: a recording is never rewritten in place",
+            a.out.display()
+        );
     }
     let input = RtklibInput {
         pos: a.pos.clone(),

@@ -50,6 +50,25 @@ pub struct Args {
     /// noise, mounting and antenna lever arm).
     #[arg(long = "sensor", alias = "imu-profile", requires = "gnss")]
     pub sensor: Option<String>,
+    /// Cut a GNSS outage into the run, START:LENGTH in s (repeatable): the
+    /// fixes inside are withheld from the filter and kept as the
+    /// reference its errors are measured against.
+    #[arg(long = "gnss-outage", value_name = "START:LEN", requires = "gnss")]
+    pub gnss_outages: Vec<String>,
+    /// The least horizontal 1-sigma a fix is taken with by solution type
+    /// (gnss.csv's quality column), m: RTK fixed, RTK float, DGNSS,
+    /// single point (vertical: twice it).
+    #[arg(
+        long,
+        value_name = "FIXED,FLOAT,DGNSS,SINGLE",
+        value_delimiter = ',',
+        num_args = 4,
+        requires = "gnss"
+    )]
+    pub gnss_floor_m: Option<Vec<f64>>,
+    /// Use only the fixes' positions (not their velocity).
+    #[arg(long, requires = "gnss")]
+    pub gnss_position_only: bool,
 }
 
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
@@ -134,6 +153,22 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         zupt: !a.no_zupt,
         gate_sigma: 6.0,
         f32: a.f32,
+        outages: a
+            .gnss_outages
+            .iter()
+            .map(|o| hal_sim::drive::parse_outage(o).map_err(|e| anyhow::anyhow!(e)))
+            .collect::<Result<_>>()?,
+        floor: match a.gnss_floor_m.as_deref() {
+            None => rins::aided::ReceiverFloor::default(),
+            Some(&[rtk_fixed_m, rtk_float_m, dgnss_m, single_m]) => rins::aided::ReceiverFloor {
+                rtk_fixed_m,
+                rtk_float_m,
+                dgnss_m,
+                single_m,
+            },
+            Some(v) => bail!("--gnss-floor-m takes four values, got {}", v.len()),
+        },
+        gnss_velocity: !a.gnss_position_only,
     };
     let pb = progress_bar("navigate --gnss");
     let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;

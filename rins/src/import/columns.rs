@@ -150,7 +150,9 @@ impl ColumnMap {
             .get("rate_hz")
             .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
             .filter(|r| *r > 0.0 && r.is_finite())
-            .ok_or_else(|| anyhow!("rate_hz (the sensor's nominal rate, Hz) is required and > 0"))?;
+            .ok_or_else(|| {
+                anyhow!("rate_hz (the sensor's nominal rate, Hz) is required and > 0")
+            })?;
         let sub = |name: &str| -> Result<&toml::Table> {
             t.get(name)
                 .and_then(|v| v.as_table())
@@ -181,14 +183,18 @@ impl ColumnMap {
             delimiter,
             rate_hz,
             time: col(
-                cols.get("time").ok_or_else(|| anyhow!("columns.time is required"))?,
+                cols.get("time")
+                    .ok_or_else(|| anyhow!("columns.time is required"))?,
                 "columns.time",
                 header,
             )?,
             gyro: triple(cols, "gyro", header)?,
             accel: triple(cols, "accel", header)?,
             time_s: unit("time", &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?,
-            gyro_si: unit("gyro", &[("dps", core::f64::consts::PI / 180.0), ("radps", 1.0)])?,
+            gyro_si: unit(
+                "gyro",
+                &[("dps", core::f64::consts::PI / 180.0), ("radps", 1.0)],
+            )?,
             accel_si: unit("accel", &[("g", hal_sim::sensor::G0), ("mps2", 1.0)])?,
             source,
         })
@@ -225,7 +231,10 @@ impl ColumnMap {
             lf += raw.len() as u64;
             crlf += raw.len() as u64 + u64::from(ends && !had_cr);
             if k == 0 && self.header {
-                names = body.split(self.delimiter).map(|s| s.trim().to_string()).collect();
+                names = body
+                    .split(self.delimiter)
+                    .map(|s| s.trim().to_string())
+                    .collect();
                 continue;
             }
             if body.trim().is_empty() {
@@ -253,13 +262,18 @@ impl ColumnMap {
                         .position(|x| x == n)
                         .ok_or_else(|| anyhow!("{what}: no column named {n:?} in the header"))?,
                 };
-                let s = fields
-                    .get(i)
-                    .ok_or_else(|| anyhow!("{what}:{line}: no column {i} (the row has {} fields)", fields.len()))?;
+                let s = fields.get(i).ok_or_else(|| {
+                    anyhow!(
+                        "{what}:{line}: no column {i} (the row has {} fields)",
+                        fields.len()
+                    )
+                })?;
                 s.parse::<f64>()
                     .ok()
                     .filter(|x| x.is_finite())
-                    .ok_or_else(|| anyhow!("{what}:{line}: column {i} is {s:?}, not a finite number"))
+                    .ok_or_else(|| {
+                        anyhow!("{what}:{line}: column {i} is {s:?}, not a finite number")
+                    })
             };
             let stamp = get(&self.time)? * self.time_s;
             let mut v = [0.0; 6];
@@ -320,7 +334,8 @@ mod tests {
     #[test]
     fn cut_edges_and_repeats_are_dropped_and_counted() {
         let m = ColumnMap::parse(MAP).unwrap();
-        let text = "1.0,0.5,3\n0,0,1,0.1,0,0,100\n0,0,1,0.1,0,0,106\n0,0,1,0.2,0,0,112\n0,0,1,0.2,0,";
+        let text =
+            "1.0,0.5,3\n0,0,1,0.1,0,0,100\n0,0,1,0.1,0,0,106\n0,0,1,0.2,0,0,112\n0,0,1,0.2,0,";
         let r = m.parse_csv(text, "imu.csv").unwrap();
         assert!(r.cut_first && r.cut_last);
         assert_eq!((r.samples.len(), r.repeats, r.rows.len()), (2, 1, 3));
@@ -334,13 +349,24 @@ mod tests {
     #[test]
     fn a_map_that_does_not_fit_the_file_names_file_and_line() {
         let m = ColumnMap::parse(MAP).unwrap();
-        let e = m.parse_csv("0,0,1,0,0,0,1\n0,0,1,0,0\n0,0,1,0,0,0,3\n", "imu.csv").unwrap_err();
+        let e = m
+            .parse_csv("0,0,1,0,0,0,1\n0,0,1,0,0\n0,0,1,0,0,0,3\n", "imu.csv")
+            .unwrap_err();
         assert!(e.to_string().contains("imu.csv:2"), "{e}");
-        let e = m.parse_csv("0,0,1,0,0,0,5\n0,0,x,0,0,0,6\n", "imu.csv").unwrap_err();
-        assert!(e.to_string().contains("imu.csv:2") && e.to_string().contains("\"x\""), "{e}");
-        let e = m.parse_csv("0,0,1,0,0,0,5\n0,0,1,0,0,1,4\n", "imu.csv").unwrap_err();
+        let e = m
+            .parse_csv("0,0,1,0,0,0,5\n0,0,x,0,0,0,6\n", "imu.csv")
+            .unwrap_err();
+        assert!(
+            e.to_string().contains("imu.csv:2") && e.to_string().contains("\"x\""),
+            "{e}"
+        );
+        let e = m
+            .parse_csv("0,0,1,0,0,0,5\n0,0,1,0,0,1,4\n", "imu.csv")
+            .unwrap_err();
         assert!(e.to_string().contains("does not increase"), "{e}");
-        let named = MAP.replace("time = 6", "time = \"t\"").replace("header", "h");
+        let named = MAP
+            .replace("time = 6", "time = \"t\"")
+            .replace("header", "h");
         let e = ColumnMap::parse(&named).unwrap_err();
         assert!(e.to_string().contains("columns.time"), "{e}");
         let e = ColumnMap::parse(&MAP.replace("\"dps\"", "\"rpm\"")).unwrap_err();

@@ -93,7 +93,11 @@ fn sample_times(
             csv.len_crlf
         ),
     };
-    let ends: Vec<u64> = csv.rows.iter().map(|r| if crlf { r.2 } else { r.1 }).collect();
+    let ends: Vec<u64> = csv
+        .rows
+        .iter()
+        .map(|r| if crlf { r.2 } else { r.1 })
+        .collect();
     let received = tag.receive_times(&ends);
     let row_stamps: Vec<f64> = csv.rows.iter().map(|r| r.0).collect();
     let clock = tag::ClockMap::fit(&row_stamps, &received)?;
@@ -162,7 +166,9 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
         .first()
         .ok_or_else(|| anyhow!("{}: no fix inside the IMU's span", input.pos.display()))?;
     let rate_hz = match (gnss.len(), gnss.last()) {
-        (n, Some(l)) if n > 1 && l.t_s > first.t_s => ((n - 1) as f64 / (l.t_s - first.t_s)).round().max(1.0),
+        (n, Some(l)) if n > 1 && l.t_s > first.t_s => {
+            ((n - 1) as f64 / (l.t_s - first.t_s)).round().max(1.0)
+        }
         _ => 1.0,
     };
     let meta = Meta {

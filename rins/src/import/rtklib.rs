@@ -32,7 +32,10 @@ pub fn calendar_s(y: i64, mo: i64, d: i64, h: i64, mi: i64, s: f64) -> f64 {
 }
 
 fn time_of(date: &str, clock: &str) -> Option<f64> {
-    let d: Vec<i64> = date.split('/').map(|x| x.parse().ok()).collect::<Option<_>>()?;
+    let d: Vec<i64> = date
+        .split('/')
+        .map(|x| x.parse().ok())
+        .collect::<Option<_>>()?;
     let c: Vec<&str> = clock.split(':').collect();
     let (&[y, mo, dd], &[h, mi, s]) = (d.as_slice(), c.as_slice()) else {
         return None;
@@ -79,11 +82,17 @@ pub fn parse_pos(text: &str, what: &str, geoid_m: f64) -> Result<Vec<PosEpoch>> 
             continue;
         }
         if names.is_empty() {
-            bail!("{what}:{n}: a solution line before the column header (% GPST latitude(deg) ...)");
+            bail!(
+                "{what}:{n}: a solution line before the column header (% GPST latitude(deg) ...)"
+            );
         }
         let f: Vec<&str> = line.split_whitespace().collect();
         if f.len() < names.len() {
-            bail!("{what}:{n}: {} fields, the header names {}", f.len(), names.len());
+            bail!(
+                "{what}:{n}: {} fields, the header names {}",
+                f.len(),
+                names.len()
+            );
         }
         let num = |name: &str| -> Result<Option<f64>> {
             let Some(i) = names.iter().position(|c| c == name) else {
@@ -96,9 +105,14 @@ pub fn parse_pos(text: &str, what: &str, geoid_m: f64) -> Result<Vec<PosEpoch>> 
                 .map(Some)
                 .ok_or_else(|| anyhow!("{what}:{n}: {name} is {s:?}, not a finite number"))
         };
-        let need = |name: &str| num(name)?.ok_or_else(|| anyhow!("{what}: no column {name} in the header"));
-        let t = time_of(f.first().copied().unwrap_or(""), f.get(1).copied().unwrap_or(""))
-            .ok_or_else(|| anyhow!("{what}:{n}: the time is not YYYY/MM/DD hh:mm:ss.sss"))?;
+        let need = |name: &str| {
+            num(name)?.ok_or_else(|| anyhow!("{what}: no column {name} in the header"))
+        };
+        let t = time_of(
+            f.first().copied().unwrap_or(""),
+            f.get(1).copied().unwrap_or(""),
+        )
+        .ok_or_else(|| anyhow!("{what}:{n}: the time is not YYYY/MM/DD hh:mm:ss.sss"))?;
         if let Some(p) = out.last() {
             if t <= p.t_gpst {
                 bail!("{what}:{n}: time does not increase");
@@ -118,7 +132,10 @@ pub fn parse_pos(text: &str, what: &str, geoid_m: f64) -> Result<Vec<PosEpoch>> 
                 if s.iter().any(|x| *x <= 0.0) {
                     bail!("{what}:{n}: velocity sigmas must be positive");
                 }
-                Some(([vn, ve, -vu], (s.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt()))
+                Some((
+                    [vn, ve, -vu],
+                    (s.iter().map(|x| x * x).sum::<f64>() / 3.0).sqrt(),
+                ))
             }
             _ => None,
         };
@@ -166,11 +183,23 @@ mod tests {
         assert_eq!(e[1].row.quality, Some(Solution::RtkFloat));
         assert!((e[1].t_gpst - e[0].t_gpst - 0.25).abs() < 1e-9);
         let bad = format!("{head}{l1}{}", l2.replace(" 2 25 ", " 9 25 "));
-        assert!(parse_pos(&bad, "s.pos", 0.0).unwrap_err().to_string().contains("s.pos:3"));
-        let bad = format!("{head}{l1}{}", l2.replace("0.0098995 0.0098995", "0 0.0098995"));
-        assert!(parse_pos(&bad, "s.pos", 0.0).unwrap_err().to_string().contains("sigmas"));
+        assert!(parse_pos(&bad, "s.pos", 0.0)
+            .unwrap_err()
+            .to_string()
+            .contains("s.pos:3"));
+        let bad = format!(
+            "{head}{l1}{}",
+            l2.replace("0.0098995 0.0098995", "0 0.0098995")
+        );
+        assert!(parse_pos(&bad, "s.pos", 0.0)
+            .unwrap_err()
+            .to_string()
+            .contains("sigmas"));
         let bad = format!("{head}{l1}{l1}");
-        assert!(parse_pos(&bad, "s.pos", 0.0).unwrap_err().to_string().contains("increase"));
+        assert!(parse_pos(&bad, "s.pos", 0.0)
+            .unwrap_err()
+            .to_string()
+            .contains("increase"));
         assert!(parse_pos(&head.replace("GPST", "UTC"), "s.pos", 0.0).is_err());
     }
 }

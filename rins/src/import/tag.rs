@@ -61,7 +61,10 @@ impl TagFile {
         }
         let body = b.get(HEADER + 16..).unwrap_or(&[]);
         if body.len() % 8 != 0 {
-            bail!("{what}: {} bytes after the header: not whole (ms, position) pairs", body.len());
+            bail!(
+                "{what}: {} bytes after the header: not whole (ms, position) pairs",
+                body.len()
+            );
         }
         let mut chunks = Vec::with_capacity(body.len() / 8);
         for (k, p) in body.chunks_exact(8).enumerate() {
@@ -149,7 +152,9 @@ impl ClockMap {
             bail!("the time tags cover fewer than two {FLOOR_WINDOW_S} s windows: cannot fit the logger's clock");
         }
         let n = floor.len() as f64;
-        let (mx, my) = floor.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
+        let (mx, my) = floor
+            .iter()
+            .fold((0.0, 0.0), |a, p| (a.0 + p.0 / n, a.1 + p.1 / n));
         let sxx: f64 = floor.iter().map(|p| (p.0 - mx).powi(2)).sum();
         let sxy: f64 = floor.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
         let drift = if sxx > 0.0 { sxy / sxx } else { 0.0 };
@@ -197,7 +202,10 @@ mod tests {
         let t = TagFile::parse(&tag_bytes((100, 0.5), &[(10, 40), (20, 80)]), "t").unwrap();
         assert_eq!(t.open_s, 100.5);
         let r = t.receive_times(&[10, 40, 41, 80, 81]);
-        assert_eq!(r, vec![Some(100.51), Some(100.51), Some(100.52), Some(100.52), None]);
+        assert_eq!(
+            r,
+            vec![Some(100.51), Some(100.51), Some(100.52), Some(100.52), None]
+        );
     }
 
     #[test]
@@ -205,9 +213,15 @@ mod tests {
         assert!(TagFile::parse(b"nope", "t").is_err());
         let mut b = tag_bytes((1, 0.0), &[(10, 40)]);
         b.push(0);
-        assert!(TagFile::parse(&b, "t").unwrap_err().to_string().contains("pairs"));
+        assert!(TagFile::parse(&b, "t")
+            .unwrap_err()
+            .to_string()
+            .contains("pairs"));
         let back = tag_bytes((1, 0.0), &[(10, 40), (5, 50)]);
-        assert!(TagFile::parse(&back, "t").unwrap_err().to_string().contains("backwards"));
+        assert!(TagFile::parse(&back, "t")
+            .unwrap_err()
+            .to_string()
+            .contains("backwards"));
     }
 
     #[test]
@@ -219,7 +233,14 @@ mod tests {
         let recv: Vec<Option<f64>> = stamps
             .iter()
             .enumerate()
-            .map(|(k, s)| Some(s + 3.2 + 20e-6 * (s - 1000.0) + 0.012 + 0.048 * ((k * 37 % 100) as f64 / 100.0)))
+            .map(|(k, s)| {
+                Some(
+                    s + 3.2
+                        + 20e-6 * (s - 1000.0)
+                        + 0.012
+                        + 0.048 * ((k * 37 % 100) as f64 / 100.0),
+                )
+            })
             .collect();
         let m = ClockMap::fit(&stamps, &recv).unwrap();
         // The floor points are exact: only rounding separates the fit.
