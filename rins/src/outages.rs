@@ -155,6 +155,7 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
         outages: vec![],
         floor: Default::default(),
         gnss_velocity: true,
+        time_offset_s: 0.0,
     };
     let run = aided::navigate(&rec, &opt, &mut |_| {})?;
     let s = aided::summary(&rec, &run);
@@ -303,6 +304,7 @@ pub fn plots(
                 outages: vec![],
                 floor: Default::default(),
                 gnss_velocity: true,
+                time_offset_s: 0.0,
             },
             &mut |_| {},
         )?;

@@ -76,6 +76,7 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
             outages: vec![],
             floor: Default::default(),
             gnss_velocity: true,
+            time_offset_s: 0.0,
         };
         let lever = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
         header.aided = Some((

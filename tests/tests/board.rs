@@ -162,6 +162,7 @@ fn the_boards_filter_is_the_icm42688_profiles() {
         outages: vec![],
         floor: Default::default(),
         gnss_velocity: true,
+        time_offset_s: 0.0,
     };
     let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o);
     assert_eq!(firmware::tuning::ICM42688_FILTER, want);

@@ -49,15 +49,33 @@ pub struct Alignment {
     pub pairs: usize,
 }
 
-/// Aligns `rec` (samples in `b`) with its `fixes` (velocity needed).
+/// The fixes with a velocity each: their own, or (position-only fixes)
+/// the central difference of their neighbours' positions.
+fn with_velocity(fixes: &[GnssRow]) -> Vec<GnssRow> {
+    let p = |f: &GnssRow| core_nav::earth::GeoPoint::from_deg(f.lat_deg, f.lon_deg, f.height_m);
+    (0..fixes.len())
+        .filter_map(|k| {
+            let f = fixes.get(k)?;
+            if f.has_velocity() {
+                return Some(*f);
+            }
+            let (a, b) = (fixes.get(k.checked_sub(1)?)?, fixes.get(k + 1)?);
+            let d = p(a).ned_to(&p(b)) / (b.t_s - a.t_s);
+            Some(GnssRow {
+                v_n_mps: [d.x, d.y, d.z],
+                sigma_vel_mps: f.sigma_h_m * std::f64::consts::SQRT_2 / (b.t_s - a.t_s),
+                ..*f
+            })
+        })
+        .collect()
+}
+
+/// Aligns `rec` (samples in `b`) with its `fixes`.
 ///
 /// # Errors
-/// No still start before the first motion, fixes without velocity, or
-/// too little motion in the window to see the heading.
+/// No still start before the first motion, or too little motion in the window to see the heading.
 pub fn align(rec: &Recording, fixes: &[GnssRow], g: f64) -> anyhow::Result<Alignment> {
-    if fixes.iter().any(|f| !f.has_velocity()) {
-        anyhow::bail!("aligning the heading needs the fixes' velocity (gnss.csv has none)");
-    }
+    let fixes = &with_velocity(fixes);
     let speed = |f: &GnssRow| f.v_n_mps[0].hypot(f.v_n_mps[1]);
     let still_end_s = fixes
         .iter()

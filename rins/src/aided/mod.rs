@@ -26,6 +26,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod offset;
 mod plots;
 mod summary;
 pub use plots::{fixes_en, plots};
@@ -53,6 +54,10 @@ pub struct AidedOptions {
     pub floor: ReceiverFloor,
     /// Use the fixes' velocity (else position only).
     pub gnss_velocity: bool,
+    /// How late the IMU's clock runs behind the receiver's, s: a fix at
+    /// the receiver's `t` is taken at the IMU's `t + offset`
+    /// ([`offset::estimate`] finds it).
+    pub time_offset_s: f64,
 }
 
 /// The least horizontal 1-sigma (m) a fix of each solution type is taken
@@ -176,9 +181,10 @@ pub struct AidedRun {
     pub outages_cut: Vec<(f64, f64)>,
 }
 
-/// The fixes the filter gets: those outside the outages cut in, each with
-/// its sigmas raised to its solution type's floor, and without velocity
-/// when the options say so.
+/// The fixes the filter gets: those outside the outages cut in, each at
+/// its time on the IMU's clock (shifted by the time offset), its sigmas
+/// raised to its solution type's floor, without velocity when the options
+/// say so.
 fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
     fixes
         .iter()
@@ -189,6 +195,7 @@ fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
         })
         .map(|f| {
             let mut f = opt.floor.apply(f);
+            f.t_s += opt.time_offset_s;
             if !opt.gnss_velocity {
                 f.v_n_mps = [f64::NAN; 3];
                 f.sigma_vel_mps = f64::NAN;

@@ -69,6 +69,19 @@ pub struct Args {
     /// Use only the fixes' positions (not their velocity).
     #[arg(long, requires = "gnss")]
     pub gnss_position_only: bool,
+    /// How late the IMU's clock runs behind the receiver's, s (known in
+    /// advance): a fix at the receiver's t is taken at the IMU's t + this.
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_negative_numbers = true,
+        requires = "gnss"
+    )]
+    pub time_offset_s: f64,
+    /// Estimate the IMU-to-GNSS time offset (a pre-pass over +-0.5 s,
+    /// around --time-offset-s) and navigate with it.
+    #[arg(long, requires = "gnss")]
+    pub estimate_time_offset: bool,
 }
 
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
@@ -169,6 +182,25 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             Some(v) => bail!("--gnss-floor-m takes four values, got {}", v.len()),
         },
         gnss_velocity: !a.gnss_position_only,
+        time_offset_s: a.time_offset_s,
+    };
+    let mut opt = opt;
+    let offset = match a.estimate_time_offset {
+        false => None,
+        true => {
+            let pb = progress_bar("time offset");
+            let around = opt.clone();
+            let e = rins::aided::offset::estimate(rec, &around, 0.5, 0.02, &mut |f| {
+                pb.set_position((f * 1000.0) as u64)
+            })?;
+            pb.finish_and_clear();
+            println!(
+                "IMU-to-GNSS time offset: {:+.3} s +- {:.3} s (the IMU late; from the fixes' NIS over +-0.5 s)",
+                e.offset_s, e.sigma_s
+            );
+            opt.time_offset_s = e.offset_s;
+            Some(e)
+        }
     };
     let pb = progress_bar("navigate --gnss");
     let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
@@ -188,7 +220,11 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         a.out.display()
     );
     if let Some(p) = &a.json {
-        write_file(p, &serde_json::to_string_pretty(&summary.json())?)?;
+        let mut j = summary.json();
+        if let (Some(e), Some(m)) = (&offset, j.as_object_mut()) {
+            m.insert("time_offset".into(), serde_json::to_value(e)?);
+        }
+        write_file(p, &serde_json::to_string_pretty(&j)?)?;
     }
     Ok(())
 }

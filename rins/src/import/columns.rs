@@ -20,6 +20,7 @@
 //! [time]
 //! source = "tag"        # "tag": the logger's clock through an RTKLIB .tag file
 //!                       # "gpst": the time column is GPST s (Unix-epoch scale)
+//! regular = true        # the sensor samples on its own regular clock
 //! ```
 
 use anyhow::{anyhow, bail, Result};
@@ -53,6 +54,9 @@ pub struct ColumnMap {
     accel_si: f64,
     /// Where times come from.
     pub source: TimeSource,
+    /// The sensor samples on its own regular clock (`[time] regular =
+    /// true`): the distinct samples' first sightings are fitted to it.
+    pub regular: bool,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -173,6 +177,12 @@ impl ColumnMap {
                     anyhow!("units.{key} = {u:?}: one of {}", names.join(", "))
                 })
         };
+        let regular = match sub("time")?.get("regular") {
+            None => false,
+            Some(v) => v
+                .as_bool()
+                .ok_or_else(|| anyhow!("time.regular must be true or false"))?,
+        };
         let source = match sub("time")?.get("source").and_then(|v| v.as_str()) {
             Some("tag") => TimeSource::Tag,
             Some("gpst") => TimeSource::Gpst,
@@ -197,6 +207,7 @@ impl ColumnMap {
             )?,
             accel_si: unit("accel", &[("g", hal_sim::sensor::G0), ("mps2", 1.0)])?,
             source,
+            regular,
         })
     }
 
