@@ -105,3 +105,60 @@ pub fn report(chs: &[ChannelAllan]) -> String {
     }
     s
 }
+
+/// A sensor file (`rins-sensor/1`) with the noise the curves measured:
+/// per triad the RMS over its axes of the white noise, the rate random
+/// walk and the Allan floor (the fit's bias instability B times
+/// [`core_nav::allan::FLOOR_OVER_B`]), and the correlation time of the
+/// fitted Gauss-Markov bias (else the floor's tau over 1.89, where a
+/// Gauss-Markov process's Allan deviation peaks). Everything Allan cannot
+/// see comes from `base` (zero without one).
+pub fn sensor_file(
+    chs: &[ChannelAllan],
+    base: Option<hal_sim::imu::ImuSpec>,
+    what: &str,
+) -> String {
+    let mut spec = base.unwrap_or_else(|| hal_sim::imu::ImuSpec {
+        name: "measured".into(),
+        model: "measured".into(),
+        ..hal_sim::imu::ImuSpec::ideal()
+    });
+    let from = spec.name.clone();
+    spec.name = format!("{from}-measured");
+    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let mut notes = vec![
+        format!("Written by rins allan from {what}: the noise terms below are measured"),
+        format!("(the RMS over the axes); the rest is {from:?}'s."),
+    ];
+    for (k, triad) in [(0usize, &mut spec.gyro), (3, &mut spec.accel)] {
+        let axes: Vec<&ChannelAllan> = chs.iter().skip(k).take(3).collect();
+        if axes.len() < 3 {
+            continue;
+        }
+        let fits: Vec<&NoiseFit> = axes.iter().map(|c| &c.fit).collect();
+        triad.white = rms(&fits.iter().map(|f| f.white).collect::<Vec<_>>());
+        triad.rrw = rms(&fits.iter().map(|f| f.rrw).collect::<Vec<_>>());
+        let floor = core_nav::allan::FLOOR_OVER_B
+            * rms(&fits.iter().map(|f| f.bias_instability).collect::<Vec<_>>());
+        triad.bias_instability = floor / hal_sim::sensor::ALLAN_PEAK_PER_GM_SIGMA;
+        let taus: Vec<f64> = axes
+            .iter()
+            .map(|c| match c.fit.gm_tau_s {
+                t if t > 0.0 => t,
+                _ => c
+                    .points
+                    .iter()
+                    .min_by(|a, b| a.adev.total_cmp(&b.adev))
+                    .map_or(100.0, |p| p.tau_s / 1.89),
+            })
+            .collect();
+        triad.bi_tau_s = taus.iter().sum::<f64>() / 3.0;
+        for c in &axes {
+            notes.push(format!(
+                "{}: white {:.4e}, bias instability B {:.4e}, rrw {:.4e} (SI)",
+                c.name, c.fit.white, c.fit.bias_instability, c.fit.rrw
+            ));
+        }
+    }
+    hal_sim::sensor::write(&spec, &notes)
+}

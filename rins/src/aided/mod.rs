@@ -12,7 +12,7 @@
 
 use anyhow::{bail, Result};
 use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
-use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_euler, Euler};
+use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_dcm, quat_to_euler, Euler};
 use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
 use core_nav::real::Real;
 use core_nav::strapdown::ImuSample;
@@ -173,8 +173,11 @@ pub struct AidedRun {
     pub faults: u32,
     /// Normalised estimation error squared against `truth.csv` (simulated
     /// runs), once a second: (time s, NEES, degrees of freedom: north,
-    /// east, and the three velocities).
+    /// east, the three velocities and the attitude's three angles).
     pub nees: Vec<(f64, f64, usize)>,
+    /// The attitude's own NEES (3 degrees of freedom) at the same seconds:
+    /// (time s, NEES).
+    pub nees_attitude: Vec<(f64, f64)>,
     /// The alignment, when the start attitude was not given.
     pub aligned: Option<align::Alignment>,
     /// The outages cut in: (start s, length s).
@@ -256,12 +259,20 @@ pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
 /// of freedom).
 pub fn filter_config(p: &ImuSpec, gate_sigma: f64) -> EskfConfig {
     let warm = &p.temp;
+    // The bias state holds the turn-on bias, constant in a run, and the
+    // in-run motion on top: it does not decay (a Gauss-Markov decay would
+    // make the filter forget the turn-on bias: after a few correlation
+    // times it took the bias as known, and on a spinning table the level,
+    // which a bias across the table axis tilts by bias / rate in the
+    // sensor's frame, with it: level NEES 16 per degree of freedom on
+    // the ICM-42688-P); the in-run motion is its random walk, the density
+    // the Gauss-Markov process has at its correlation time.
     let in_run = |bi: f64, tau: f64, rrw: f64, temp: f64| {
         let tau = if tau > 0.0 { tau } else { 3600.0 };
         let q = 2.0 * bi * bi / tau
             + rrw * rrw
             + (temp * warm.warmup_c).powi(2) / warm.warmup_tau_s.max(1.0);
-        ((q * tau / 2.0).sqrt(), tau)
+        ((q * BIAS_HOLD_S / 2.0).sqrt(), BIAS_HOLD_S)
     };
     let g = &p.gyro;
     let a = &p.accel;
@@ -286,6 +297,10 @@ pub fn filter_config(p: &ImuSpec, gate_sigma: f64) -> EskfConfig {
         gnss_corr_tau_s: 60.0,
     }
 }
+
+/// The bias states' correlation time in the filter, s: long enough that
+/// they do not decay over any run (a random walk of the same density).
+pub const BIAS_HOLD_S: f64 = 1e7;
 
 /// Navigates `rec` with its GNSS fixes.
 ///
@@ -447,24 +462,45 @@ fn navigate_t<T: Real>(
             still: step.still,
             zupt: step.zupt,
         });
-        // NEES once a second against the truth (north, east, velocity):
-        // the error in the tangent plane at the start, the filter's
-        // covariance of (dp_n, dp_e, dv).
+        // NEES once a second against the truth over every state the
+        // trajectory reports but height (north, east, the three
+        // velocities, the attitude's rotation error `phi` about north,
+        // east and down: `c_true = (I + [phi x]) c_est`).
         if k % (m.imu_rate_hz.round().max(1.0) as usize) == 0 {
             if let Some(tr) = recording::moving::truth_at(truth, t) {
-                let e = nalgebra::SVector::<f64, 5>::from_column_slice(&[
+                let [r, p, h] = tr.euler_deg;
+                let c_true = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(r, p, h)));
+                let d = c_true * c_b_n.transpose();
+                let e = nalgebra::SVector::<f64, 8>::from_column_slice(&[
                     tr.p_n_m[0] - ned.x,
                     tr.p_n_m[1] - ned.y,
                     tr.v_n_mps[0] - v_n.x,
                     tr.v_n_mps[1] - v_n.y,
                     tr.v_n_mps[2] - v_n.z,
+                    0.5 * (d[(2, 1)] - d[(1, 2)]),
+                    0.5 * (d[(0, 2)] - d[(2, 0)]),
+                    0.5 * (d[(1, 0)] - d[(0, 1)]),
                 ]);
-                let idx = [I_P, I_P + 1, I_V, I_V + 1, I_V + 2];
-                let p5 =
-                    nalgebra::SMatrix::<f64, 5, 5>::from_fn(|r, c| kf.p[(idx[r], idx[c])].to_f64());
-                if let Some(ch) = p5.cholesky() {
+                let idx = [
+                    I_P,
+                    I_P + 1,
+                    I_V,
+                    I_V + 1,
+                    I_V + 2,
+                    I_PHI,
+                    I_PHI + 1,
+                    I_PHI + 2,
+                ];
+                let p8 =
+                    nalgebra::SMatrix::<f64, 8, 8>::from_fn(|r, c| kf.p[(idx[r], idx[c])].to_f64());
+                if let Some(ch) = p8.cholesky() {
                     let x = ch.solve(&e);
-                    run.nees.push((t, e.dot(&x), 5));
+                    run.nees.push((t, e.dot(&x), 8));
+                    let pa = p8.fixed_view::<3, 3>(5, 5).into_owned();
+                    let ea = e.fixed_rows::<3>(5).into_owned();
+                    if let Some(ca) = pa.cholesky() {
+                        run.nees_attitude.push((t, ea.dot(&ca.solve(&ea))));
+                    }
                 }
             }
         }

@@ -26,6 +26,8 @@ pub struct AidedSummary {
     pub nees_mean_per_dof: Option<f64>,
     /// See `nees_mean_per_dof`.
     pub nees_in_95: Option<f64>,
+    /// The attitude's own mean NEES per degree of freedom (with truth).
+    pub nees_attitude_per_dof: Option<f64>,
     /// Zero-velocity updates, gate rejections, refusals, mechanization faults.
     pub zupts: u32,
     /// See `zupts`.
@@ -205,6 +207,11 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
             .count() as f64
             / used.len() as f64;
     }
+    if !run.nees_attitude.is_empty() {
+        let n = run.nees_attitude.len() as f64;
+        s.nees_attitude_per_dof =
+            Some(run.nees_attitude.iter().map(|x| x.1 / 3.0).sum::<f64>() / n);
+    }
     if !run.nees.is_empty() {
         let n = run.nees.len() as f64;
         s.nees_mean_per_dof = Some(run.nees.iter().map(|x| x.1 / x.2 as f64).sum::<f64>() / n);
@@ -256,8 +263,9 @@ impl AidedSummary {
         );
         if let (Some(m), Some(f)) = (self.nees_mean_per_dof, self.nees_in_95) {
             o += &format!(
-                "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds)\n",
-                100.0 * f
+                "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds; position, velocity, attitude){}\n",
+                100.0 * f,
+                self.nees_attitude_per_dof.map_or(String::new(), |a| format!("; attitude alone {a:.2}"))
             );
         }
         o += &format!(

@@ -17,6 +17,17 @@ pub struct Args {
     /// Write the plot here (SVG, and PNG beside it with the same stem).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Write a sensor file (rins-sensor/1) with the measured noise: white
+    /// noise, bias instability and its correlation time, rate random walk
+    /// (the axes' RMS); the rest (scale, misalignment, ranges...) from
+    /// --sensor.
+    #[arg(long)]
+    pub sensor_out: Option<PathBuf>,
+    /// The sensor the file starts from (a shipped name or a file; default:
+    /// the recording's `[imu] model` when it names a shipped one, else
+    /// nothing but the noise).
+    #[arg(long, requires = "sensor_out")]
+    pub sensor: Option<String>,
 }
 
 /// Runs `rins allan`.
@@ -64,6 +75,19 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string(&allan_mod::to_json(&chs))?)?;
         println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.sensor_out {
+        let base = match &a.sensor {
+            Some(n) => Some(hal_sim::sensor::resolve(n)?),
+            None => rec
+                .meta
+                .imu_model
+                .as_deref()
+                .and_then(hal_sim::imu::ImuSpec::by_model),
+        };
+        let text = allan_mod::sensor_file(&chs, base, &a.rec.display().to_string());
+        write_file(p, &text)?;
+        println!("wrote {} (rins-sensor/1: the measured noise)", p.display());
     }
     if let Some(p) = &a.plot {
         for f in allan_mod::figure(&chs, &a.rec.display().to_string()).write(p)? {

@@ -1,0 +1,109 @@
+//! A user characterises their unit and navigates with it: `rins allan
+//! --sensor-out` writes a sensor file from a static recording, `rins
+//! simulate --sensor FILE` and `rins navigate --gnss --sensor FILE` take
+//! it. Our simulator only: the recording is hal-sim's ICM-42688-P.
+
+use std::process::Command;
+
+fn rins() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_rins"))
+}
+
+fn ok(args: &[&str]) -> String {
+    let o = rins().args(args).output().unwrap();
+    assert!(
+        o.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+#[test]
+fn allan_writes_a_sensor_file_that_simulate_and_navigate_take() {
+    let dir = std::env::temp_dir().join(format!("rins-cli-sensor-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let s = |p: &str| dir.join(p).display().to_string();
+    ok(&[
+        "simulate",
+        "--sensor",
+        "icm42688",
+        "--scheme",
+        "still",
+        "--static-s",
+        "300",
+        "--duration-s",
+        "300",
+        "--seed",
+        "9",
+        "--out",
+        &s("static"),
+    ]);
+    ok(&["allan", &s("static"), "--sensor-out", &s("unit.toml")]);
+    let unit = hal_sim::sensor::resolve(&s("unit.toml")).unwrap();
+    // The gyro's white noise is the datasheet's density and the 16-bit
+    // output's quantisation (LSB / sqrt(12) over the 100 Hz band):
+    // sqrt(0.0028^2 + (0.061 / sqrt(12) / 10)^2) = 0.0033 deg/s/sqrt(Hz);
+    // 300 s of samples give it to a few per cent (the fit's sigma), 10 %
+    // is its bound here.
+    let want = (0.0028f64.powi(2) + (1.0 / 16.4 / 12f64.sqrt() / 10.0).powi(2)).sqrt();
+    let got = unit.gyro.white.to_degrees();
+    assert!((got / want - 1.0).abs() < 0.1, "{got} vs {want}");
+    // What Allan cannot see comes from the recording's own model.
+    let icm = hal_sim::sensor::resolve("icm42688").unwrap();
+    assert_eq!(
+        (unit.gyro.scale, unit.accel.full_scale),
+        (icm.gyro.scale, icm.accel.full_scale)
+    );
+    // The file drives a simulation and a navigation.
+    ok(&[
+        "simulate",
+        "--drive",
+        "city",
+        "--sensor",
+        &s("unit.toml"),
+        "--scheme",
+        "continuous",
+        "--duration-s",
+        "60",
+        "--seed",
+        "2",
+        "--out",
+        &s("drive"),
+    ]);
+    let nav = ok(&[
+        "navigate",
+        &s("drive"),
+        "--gnss",
+        "--sensor",
+        &s("unit.toml"),
+        "--out",
+        &s("nav"),
+    ]);
+    assert!(nav.contains("NEES"), "{nav}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_bad_sensor_file_is_refused_naming_file_and_key() {
+    let dir = std::env::temp_dir().join(format!("rins-cli-badsensor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let f = dir.join("bad.toml");
+    std::fs::write(&f, "format = \"rins-sensor/1\"\n[gyro]\nnoise_dps = 1\n").unwrap();
+    let o = rins()
+        .args([
+            "simulate",
+            "--sensor",
+            f.to_str().unwrap(),
+            "--out",
+            dir.join("x").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("bad.toml") && e.contains("gyro.noise_dps"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
