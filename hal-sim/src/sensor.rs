@@ -135,8 +135,9 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
     let gyro = r.triad("gyro", &GYRO)?;
     let accel = r.triad("accel", &ACCEL)?;
     let g_sensitivity = r.num("gyro", "g_sensitivity_dps_per_g")?.unwrap_or(0.0) * DEG / G0;
-    let latency_s = r.num("gyro", "latency_s")?.unwrap_or(0.0);
-    let accel_latency_s = r.num("accel", "latency_s")?;
+    // Latencies are signed (a stamp taken late makes a sample early).
+    let latency_s = r.signed("gyro", "latency_s")?.unwrap_or(0.0);
+    let accel_latency_s = r.signed("accel", "latency_s")?;
     r.known(Some("timing"), &["jitter_s"])?;
     let jitter_s = r.num("timing", "jitter_s")?.unwrap_or(0.0);
     let d = TempSpec::default();
@@ -352,6 +353,23 @@ impl Reader<'_> {
             Some(v) => v.as_str().map(|s| Some(s.to_string())).ok_or_else(|| {
                 self.err(format!("{} must be a string", Self::key_name(table, key)))
             }),
+        }
+    }
+
+    /// A finite number of either sign.
+    fn signed(&self, table: &str, key: &str) -> Result<Option<f64>, SensorError> {
+        let Some(t) = self.table(Some(table))? else {
+            return Ok(None);
+        };
+        let name = Self::key_name(Some(table), key);
+        match t.get(key) {
+            None => Ok(None),
+            Some(v) => v
+                .as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .filter(|x| x.is_finite())
+                .map(Some)
+                .ok_or_else(|| self.err(format!("{name} must be a finite number"))),
         }
     }
 

@@ -107,3 +107,40 @@ fn a_bad_sensor_file_is_refused_naming_file_and_key() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn diagnose_writes_the_latency_it_found_into_a_sensor_file() {
+    // Our simulator only: a NAV440 run with 5 ms of latency injected.
+    let dir = std::env::temp_dir().join(format!("rins-cli-diag-sensor-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let s = |p: &str| dir.join(p).display().to_string();
+    ok(&[
+        "simulate",
+        "--sensor",
+        "nav440",
+        "--scheme",
+        "reciprocating",
+        "--rate-dps",
+        "60",
+        "--static-s",
+        "30",
+        "--duration-s",
+        "300",
+        "--seed",
+        "4",
+        "--effect",
+        "time_offset=0.005",
+        "--out",
+        &s("rec"),
+    ]);
+    ok(&["diagnose", &s("rec"), "--sensor-out", &s("unit.toml")]);
+    let unit = hal_sim::sensor::resolve(&s("unit.toml")).unwrap();
+    // diagnose's latency on such runs is good to well under 0.1 ms (its own
+    // sigma); 0.5 ms is this test's bound.
+    assert!((unit.latency_s - 0.005).abs() < 5e-4, "{}", unit.latency_s);
+    assert_eq!(
+        unit.gyro.white,
+        hal_sim::sensor::resolve("nav440").unwrap().gyro.white
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

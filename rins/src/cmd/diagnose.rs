@@ -40,6 +40,15 @@ pub struct Args {
     /// First seed of the twins drawn for `--sim-model`.
     #[arg(long, default_value_t = 1)]
     pub twin_seed: u64,
+    /// Write a sensor file (rins-sensor/1) with what the findings measured
+    /// of the sensor (g-sensitivity, scale nonlinearity and asymmetry,
+    /// temperature coefficients, latency) on top of --sensor.
+    #[arg(long)]
+    pub sensor_out: Option<PathBuf>,
+    /// The sensor the file starts from (a shipped name or a file; default:
+    /// the recording's `[imu] model` when it names a shipped one).
+    #[arg(long, requires = "sensor_out")]
+    pub sensor: Option<String>,
 }
 
 /// Runs `rins diagnose`.
@@ -71,6 +80,21 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string_pretty(&d.to_json())?)?;
         println!("wrote {}", p.display());
+    }
+    if let Some(p) = &a.sensor_out {
+        let base = match &a.sensor {
+            Some(n) => Some(hal_sim::sensor::resolve(n)?),
+            None => rec
+                .meta
+                .imu_model
+                .as_deref()
+                .and_then(hal_sim::imu::ImuSpec::by_model),
+        };
+        write_file(p, &rins::diagnose::sensor_out::sensor_file(&d, base, &name))?;
+        println!(
+            "wrote {} (rins-sensor/1: what the findings measured)",
+            p.display()
+        );
     }
     if let Some(mp) = &a.sim_model {
         let pb = progress_bar("twin");

@@ -3,5 +3,6 @@
 //! report and the plots ([`show`], [`twin`]'s `text` and `plots`).
 
 pub use ::diagnose::*;
+pub mod sensor_out;
 pub mod show;
 pub mod twin;
