@@ -11,10 +11,26 @@
 //! encoder angle `theta`: `c_s_b = rot(k, theta)`, `c_b_n = c_s_n c_s_b^T`.
 //!
 //! **Zero velocity** is detected from the IMU with the table's own rotation
-//! removed: over the last [`ZUPT_WINDOW`] samples the base's rotation
-//! `|c_s_b (w_is_s - theta_dot k)|` stays under [`ZUPT_GYRO_RADPS`] and the
-//! specific force's spread under [`ZUPT_ACCEL_MPS2`]: a moving car shakes
-//! (road and engine vibration) and turns; a parked one does neither. The
+//! removed, by a SHOE-type test (Skog et al., "Zero-velocity detection: an
+//! algorithm evaluation", IEEE T-BME 2010): over the last [`ZUPT_WINDOW`]
+//! samples, the spread about their means of the base's rotation `w =
+//! c_s_b (w_is_s - theta_dot k)` and of the specific force, each over its
+//! per-sample noise (the sensor's white noise over the sample interval and
+//! its quantisation: [`ZuptNoise`]), per degree of freedom:
+//! `S = (sum |f_k - f_mean|^2 / sigma_f^2 + sum |w_k - w_mean|^2 /
+//! sigma_w^2) / (6 W - 6)`, about 1 for a still ideal sensor; and the
+//! mean rotation `|w_mean|` (a turn is smooth). Still is `S` under a
+//! threshold learnt from the run's own still start (navigation starts at
+//! rest) and `|w_mean|` under [`ZUPT_MEAN_GYRO_RADPS`] (or 1.5 times the
+//! start's own, the gyro bias not yet estimated): the first
+//! [`ZUPT_START_EVALS`] evaluations find the median `S` of the parked
+//! vehicle (idle vibration, a hand's tremor; the median, not the largest:
+//! a table spinning up at power-up shakes the first windows) and the
+//! threshold is [`ZUPT_MARGIN`] times it, at least the noise's own 99.9 % bound and at
+//! most what [`ZUPT_CAP_GYRO_RADPS`] and [`ZUPT_CAP_ACCEL_MPS2`] give (a
+//! start that was not still must not teach it to call motion still). No
+//! update is made while it learns. Each evaluation's statistic and verdict are
+//! reported ([`AidedStep::still`], [`AidedNav::zupt_threshold`]). The
 //! detector is evaluated, and the update made, every [`ZUPT_EVERY`]
 //! samples (consecutive zero-velocity measurements 10 ms apart are not
 //! independent; one every 0.1 s keeps the filter honest and the step
@@ -43,12 +59,25 @@ use nalgebra::{Matrix3, Quaternion, Vector3};
 
 /// Samples the zero-velocity detector looks back over (0.5 s at 100 Hz).
 pub const ZUPT_WINDOW: usize = 50;
-/// The base's rotation under which it may be still, rad/s (0.5 deg/s:
-/// above a MEMS gyro's 0.5 s noise, below a car's yaw in traffic).
-pub const ZUPT_GYRO_RADPS: f64 = 0.0087;
-/// The specific force's standard deviation under which it may be still,
-/// m/s^2 (a moving car's vibration is several times more).
-pub const ZUPT_ACCEL_MPS2: f64 = 0.05;
+/// Detector evaluations that learn the threshold from the still start
+/// (3 s at 100 Hz: a parked car's or a held device's first seconds).
+pub const ZUPT_START_EVALS: u32 = 30;
+const START_EVALS: usize = ZUPT_START_EVALS as usize;
+/// The threshold over the still start's largest statistic (the statistic
+/// is a variance ratio: 3 is 1.7 times the amplitude).
+pub const ZUPT_MARGIN: f64 = 3.0;
+/// The most a still base may turn, rad/s (3 deg/s: a car idling, a hand
+/// holding), and its specific force spread, m/s^2: the threshold's cap.
+pub const ZUPT_CAP_GYRO_RADPS: f64 = 0.052;
+/// See [`ZUPT_CAP_GYRO_RADPS`].
+pub const ZUPT_CAP_ACCEL_MPS2: f64 = 0.3;
+/// The mean rotation under which the base may be still, rad/s (0.5
+/// deg/s: a car's slowest turns are faster).
+pub const ZUPT_MEAN_GYRO_RADPS: f64 = 0.0087;
+/// The statistic's 99.9 % bound for a still ideal sensor: a chi-square of
+/// `6 W - 6` degrees of freedom per degree of freedom, `1 + 3.09
+/// sqrt(2 / (6 W - 6))` (its normal approximation).
+const ZUPT_NOISE_BOUND: f64 = 1.0 + 3.09 * 0.082_479;
 /// Zero-velocity measurement 1-sigma, m/s.
 pub const ZUPT_SIGMA_MPS: f64 = 0.02;
 /// The detector runs, and a zero-velocity update is made, every this many
@@ -195,6 +224,19 @@ pub struct AidedConfig {
     pub antenna_b_m: [f64; 3],
     /// Make zero-velocity updates.
     pub zupt: bool,
+    /// The detector's per-sample noise.
+    pub zupt_noise: ZuptNoise,
+}
+
+/// The per-sample noise the zero-velocity detector measures against: the
+/// sensor's white noise over its sample interval and its quantisation
+/// (`sqrt(N^2 / dt + lsb^2 / 12)`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZuptNoise {
+    /// Specific force, 1-sigma per sample and axis, m/s^2.
+    pub sigma_f_mps2: f64,
+    /// Rotation rate, 1-sigma per sample and axis, rad/s.
+    pub sigma_w_radps: f64,
 }
 
 /// What the navigator has counted.
@@ -238,8 +280,16 @@ pub struct AidedNav<T: Real> {
     cfg: AidedConfig,
     origin: OriginE7,
     lever_b: Vector3<T>,
-    /// (|w_ib_b|, f_b) of the last samples, a ring.
-    window: [(T, Vector3<T>); ZUPT_WINDOW],
+    /// (w_ib_b, f_b) of the last samples, a ring.
+    window: [(Vector3<T>, Vector3<T>); ZUPT_WINDOW],
+    /// The detector's threshold (learnt from the still start), the
+    /// start's largest statistic and mean rotation so far, the mean
+    /// rotation's limit.
+    zupt_gamma: T,
+    start_stats: [T; START_EVALS],
+    start_rots: [T; START_EVALS],
+    rot_limit: T,
+    evals: u32,
     head: usize,
     filled: usize,
     steps: u32,
@@ -282,6 +332,14 @@ impl RefusedFix<f32> {
         sigma_h: 0.0,
         has_vel: false,
     };
+}
+
+/// The median of the first `n` of `v` (the upper one of an even count).
+fn median<T: Real>(v: &[T; START_EVALS], n: usize) -> T {
+    let mut w = *v;
+    let part = w.get_mut(..n.min(START_EVALS)).unwrap_or(&mut []);
+    part.sort_unstable_by(|a, b| a.partial_cmp(b).unwrap_or(core::cmp::Ordering::Equal));
+    part.get(part.len() / 2).copied().unwrap_or(T::zero())
 }
 
 /// Two fixes with velocity agree: `b` where `a`, moved at their mean
@@ -369,6 +427,10 @@ impl AidedConfig {
         axis: Axis::X,
         antenna_b_m: [0.0; 3],
         zupt: false,
+        zupt_noise: ZuptNoise {
+            sigma_f_mps2: 0.0,
+            sigma_w_radps: 0.0,
+        },
     };
 }
 
@@ -387,7 +449,12 @@ impl AidedNav<f32> {
             height_mm: 0,
         },
         lever_b: crate::real::zeros_f32(),
-        window: [(0.0, crate::real::zeros_f32()); ZUPT_WINDOW],
+        window: [(crate::real::zeros_f32(), crate::real::zeros_f32()); ZUPT_WINDOW],
+        zupt_gamma: 0.0,
+        start_stats: [0.0; START_EVALS],
+        start_rots: [0.0; START_EVALS],
+        rot_limit: 0.0,
+        evals: 0,
         head: 0,
         filled: 0,
         steps: 0,
@@ -460,7 +527,12 @@ impl<T: Real> AidedNav<T> {
             cfg,
             origin,
             lever_b: Vector3::from(cfg.antenna_b_m).map(T::lit),
-            window: [(T::zero(), Vector3::zeros()); ZUPT_WINDOW],
+            window: [(Vector3::zeros(), Vector3::zeros()); ZUPT_WINDOW],
+            zupt_gamma: T::zero(),
+            start_stats: [T::zero(); START_EVALS],
+            start_rots: [T::zero(); START_EVALS],
+            rot_limit: T::zero(),
+            evals: 0,
             head: 0,
             filled: 0,
             steps: 0,
@@ -499,12 +571,17 @@ impl<T: Real> AidedNav<T> {
         self.cfg = cfg;
         self.origin = origin;
         self.lever_b = Vector3::from(cfg.antenna_b_m).map(T::lit);
-        self.window.fill((T::zero(), Vector3::zeros()));
+        self.window.fill((Vector3::zeros(), Vector3::zeros()));
         self.head = 0;
         self.filled = 0;
         self.steps = 0;
         self.still = false;
         self.zupt_due = false;
+        self.zupt_gamma = T::zero();
+        self.start_stats.fill(T::zero());
+        self.start_rots.fill(T::zero());
+        self.rot_limit = T::zero();
+        self.evals = 0;
         self.pending = None;
         self.pending_at = None;
         self.refused_fixes.fill(RefusedFix::default());
@@ -677,7 +754,7 @@ impl<T: Real> AidedNav<T> {
         let k = self.cfg.axis.unit::<T>();
         let w_ib_b = csb * (s.w_is_s - k * table_rate);
         if let Some(slot) = self.window.get_mut(self.head) {
-            *slot = (w_ib_b.norm(), csb * s.f_s);
+            *slot = (w_ib_b, csb * s.f_s);
         }
         self.head = (self.head + 1) % ZUPT_WINDOW;
         self.filled = (self.filled + 1).min(ZUPT_WINDOW);
@@ -713,7 +790,7 @@ impl<T: Real> AidedNav<T> {
         if self.cfg.zupt && self.zupt_due && !corrected {
             self.zupt_due = false;
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
-            if self.still {
+            if self.still && self.evals > ZUPT_START_EVALS {
                 let z = -st.v_n;
                 let sigma = Vector3::repeat(T::lit(ZUPT_SIGMA_MPS));
                 if self.kf.update_velocity_opt(&z, &sigma, ws).is_ok() {
@@ -850,25 +927,71 @@ impl<T: Real> AidedNav<T> {
         pairs && triples
     }
 
-    /// The detector's verdict on the window: no rotation above
-    /// [`ZUPT_GYRO_RADPS`], the specific force's spread under
-    /// [`ZUPT_ACCEL_MPS2`].
-    fn is_still(&self) -> bool {
-        let gyro = T::lit(ZUPT_GYRO_RADPS);
-        if self.window.iter().any(|(g, _)| *g > gyro) {
+    /// The detector's statistic on the window (see the module: about 1
+    /// for a still ideal sensor) and its mean rotation, rad/s.
+    fn statistic(&self) -> (T, T) {
+        let n = T::lit(ZUPT_WINDOW as f64);
+        let zero = (Vector3::<T>::zeros(), Vector3::<T>::zeros());
+        let (sw, sf) = self
+            .window
+            .iter()
+            .fold(zero, |a, (w, f)| (a.0 + w, a.1 + f));
+        let (mw, mf) = (sw / n, sf / n);
+        let zn = &self.cfg.zupt_noise;
+        let (vf, vw) = (
+            T::lit(zn.sigma_f_mps2 * zn.sigma_f_mps2),
+            T::lit(zn.sigma_w_radps * zn.sigma_w_radps),
+        );
+        let sum = self.window.iter().fold(T::zero(), |a, (w, f)| {
+            a + (f - mf).norm_squared() / vf + (w - mw).norm_squared() / vw
+        });
+        (sum / T::lit(6.0 * ZUPT_WINDOW as f64 - 6.0), mw.norm())
+    }
+
+    /// The threshold's cap: the statistic of a base shaking with a spread
+    /// of [`ZUPT_CAP_GYRO_RADPS`] and [`ZUPT_CAP_ACCEL_MPS2`].
+    fn zupt_cap(&self) -> f64 {
+        let zn = &self.cfg.zupt_noise;
+        let w = ZUPT_WINDOW as f64;
+        let (a, g) = (
+            ZUPT_CAP_ACCEL_MPS2 / zn.sigma_f_mps2,
+            ZUPT_CAP_GYRO_RADPS / zn.sigma_w_radps,
+        );
+        w * (a * a + g * g) / (6.0 * w - 6.0)
+    }
+
+    /// The detector's verdict on the window: while the still start lasts
+    /// it learns the thresholds (and says still); after, the statistic
+    /// and the mean rotation under them.
+    fn is_still(&mut self) -> bool {
+        let (stat, rot) = self.statistic();
+        if !(stat.is_finite() && rot.is_finite()) {
             return false;
         }
-        let n = T::lit(ZUPT_WINDOW as f64);
-        let mean = self
-            .window
-            .iter()
-            .fold(Vector3::zeros(), |a: Vector3<T>, (_, f)| a + f)
-            / n;
-        let var = self
-            .window
-            .iter()
-            .fold(T::zero(), |a, (_, f)| a + (f - mean).norm_squared())
-            / n;
-        var < T::lit(ZUPT_ACCEL_MPS2 * ZUPT_ACCEL_MPS2)
+        self.evals = self.evals.saturating_add(1);
+        if self.evals <= ZUPT_START_EVALS {
+            let k = (self.evals - 1) as usize;
+            if let (Some(a), Some(b)) = (self.start_stats.get_mut(k), self.start_rots.get_mut(k)) {
+                (*a, *b) = (stat, rot);
+            }
+            let (gamma, rot) = (
+                median(&self.start_stats, k + 1),
+                median(&self.start_rots, k + 1),
+            );
+            self.zupt_gamma = (T::lit(ZUPT_MARGIN) * gamma)
+                .max(T::lit(ZUPT_NOISE_BOUND))
+                .min(T::lit(self.zupt_cap()));
+            self.rot_limit = (T::lit(1.5) * rot)
+                .max(T::lit(ZUPT_MEAN_GYRO_RADPS))
+                .min(T::lit(ZUPT_CAP_GYRO_RADPS));
+            return true;
+        }
+        stat <= self.zupt_gamma && rot <= self.rot_limit
+    }
+
+    /// The zero-velocity detector's threshold (learnt from the still
+    /// start; 0 before its first evaluation).
+    pub fn zupt_threshold(&self) -> T {
+        self.zupt_gamma
     }
 }

@@ -11,7 +11,7 @@
 use crate::control::ControlConfig;
 use crate::navigation::NavConfig;
 use crate::tasks::Tuning;
-use core_nav::aided::AidedConfig;
+use core_nav::aided::{AidedConfig, ZuptNoise};
 use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::table::Axis;
 
@@ -44,7 +44,17 @@ pub const ICM42688_FILTER: AidedConfig = AidedConfig {
     axis: Axis::Z,
     antenna_b_m: [0.0; 3],
     zupt: true,
+    zupt_noise: ZuptNoise {
+        sigma_f_mps2: SIGMA_F,
+        sigma_w_radps: SIGMA_W,
+    },
 };
+
+/// The zero-velocity detector's per-sample noise at 100 Hz
+/// (`rins::aided::zupt_noise`): m/s^2 and rad/s.
+const SIGMA_F: f64 = 0.007_002_444_011_357_032_5;
+/// See [`SIGMA_F`].
+const SIGMA_W: f64 = 0.000_577_235_932_629_626_1;
 
 /// The board's tuning: the tick's and navigation's defaults (1 kHz rate
 /// loop at 25 Hz bandwidth, 16,384-count encoder, 60 s + 60 s calibration,

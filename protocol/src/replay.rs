@@ -39,9 +39,9 @@ use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::table::Axis;
 
 /// Bytes in the header.
-pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 17 + 4) * 8 + 4 + 8;
+pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 17 + 4 + 2) * 8 + 4 + 8;
 /// The format's version.
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 
 /// The board's configuration for the replay (the header's fields).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,8 +70,8 @@ pub struct Header {
 
 impl Header {
     /// The header's f64 fields after the fixed ones, in order.
-    fn aided_f64(&self) -> [f64; 25] {
-        let mut v = [0.0; 25];
+    fn aided_f64(&self) -> [f64; 27] {
+        let mut v = [0.0; 27];
         if let Some((lon, c)) = self.aided {
             let e = &c.eskf;
             let i = &c.initial;
@@ -103,6 +103,8 @@ impl Header {
                 i.velocity_mps,
                 i.level_rad,
                 i.heading_rad,
+                c.zupt_noise.sigma_f_mps2,
+                c.zupt_noise.sigma_w_radps,
             ];
         }
         v
@@ -187,7 +189,11 @@ impl Header {
                 },
                 axis: Axis::Z,
                 antenna_b_m: [g(1)?, g(2)?, g(3)?],
-                zupt: word(r, 68 + 8 * 25) == 1,
+                zupt: word(r, 68 + 8 * 27) == 1,
+                zupt_noise: core_nav::aided::ZuptNoise {
+                    sigma_f_mps2: g(25)?,
+                    sigma_w_radps: g(26)?,
+                },
             };
             Some((g(0)?, cfg))
         } else {

@@ -164,7 +164,7 @@ fn the_boards_filter_is_the_icm42688_profiles() {
         gnss_velocity: true,
         time_offset_s: 0.0,
     };
-    let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o);
+    let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o, 100.0);
     assert_eq!(firmware::tuning::ICM42688_FILTER, want);
 }
 

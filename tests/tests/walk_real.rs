@@ -136,6 +136,16 @@ fn the_walk_is_never_lost_after_its_outages() {
         for o in &s.outages {
             assert!(o.end_error_m.unwrap() < 30.0, "{o:?}");
         }
+        // The zero-velocity detector fires in the final rest (ORIGIN.md:
+        // set down at about 114 s, still to the end) and never while the
+        // walker walks.
+        println!("zero-velocity stretches: {:?}", s.zupt_spans);
+        assert!(
+            s.zupt_spans.iter().all(|(a, _, _)| *a >= 114.0),
+            "{:?}",
+            s.zupt_spans
+        );
+        assert!(s.zupts >= 100, "{}", s.zupts);
     }
 }
 

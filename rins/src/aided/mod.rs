@@ -32,9 +32,7 @@ mod summary;
 pub use plots::{fixes_en, plots};
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};
 
-pub use core_nav::aided::{
-    GNSS_CORR_SHARE, ZUPT_ACCEL_MPS2, ZUPT_GYRO_RADPS, ZUPT_SIGMA_MPS, ZUPT_WINDOW,
-};
+pub use core_nav::aided::{GNSS_CORR_SHARE, ZUPT_SIGMA_MPS, ZUPT_WINDOW};
 
 /// How to aid.
 #[derive(Clone, Debug)]
@@ -378,7 +376,7 @@ fn navigate_t<T: Real>(
     };
     let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
     let t0 = rec.imu[0].t_s;
-    let mut cfg = aided_config(m.axis, lever_b, opt);
+    let mut cfg = aided_config(m.axis, lever_b, opt, m.imu_rate_hz);
     cfg.initial = initial;
     cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&fixes);
     let mut an = AidedNav::<T>::new(
@@ -520,13 +518,35 @@ fn navigate_t<T: Real>(
 
 /// The aided navigator's settings for a sensor profile, table axis and
 /// antenna lever arm (`b`, m).
-pub fn aided_config(axis: Axis, antenna_b_m: [f64; 3], opt: &AidedOptions) -> AidedConfig {
+pub fn aided_config(
+    axis: Axis,
+    antenna_b_m: [f64; 3],
+    opt: &AidedOptions,
+    rate_hz: f64,
+) -> AidedConfig {
     AidedConfig {
         eskf: filter_config(&opt.profile, opt.gate_sigma),
         initial: INITIAL_SIGMA,
         axis,
         antenna_b_m,
         zupt: opt.zupt,
+        zupt_noise: zupt_noise(&opt.profile, rate_hz),
+    }
+}
+
+/// The zero-velocity detector's per-sample noise for a sensor sampled at
+/// `rate_hz`: white noise over the interval and quantisation, at least
+/// 0.1 mg and 0.001 deg/s (an ideal sensor's zero would make every
+/// window moving).
+pub fn zupt_noise(p: &ImuSpec, rate_hz: f64) -> core_nav::aided::ZuptNoise {
+    let per = |white: f64, lsb: f64, floor: f64| {
+        (white * white * rate_hz + lsb * lsb / 12.0)
+            .sqrt()
+            .max(floor)
+    };
+    core_nav::aided::ZuptNoise {
+        sigma_f_mps2: per(p.accel.white, p.accel.lsb, 1e-4 * hal_sim::sensor::G0),
+        sigma_w_radps: per(p.gyro.white, p.gyro.lsb, 1e-3f64.to_radians()),
     }
 }
 

@@ -50,6 +50,9 @@ pub fn estimate(
             // Positions only: a receiver's velocity may lag its own
             // positions (a filter inside it), which is not the clocks'.
             gnss_velocity: false,
+            // The fixes alone: zero-velocity updates do not depend on the
+            // offset and only blur the fixes' residuals.
+            zupt: false,
             ..opt.clone()
         };
         let run = navigate(rec, &o, &mut |_| {})?;

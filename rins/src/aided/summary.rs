@@ -39,6 +39,25 @@ pub struct AidedSummary {
     /// Re-initialisations from fixes the gate kept refusing while they
     /// agreed among themselves (a filter lost after an outage).
     pub reinits: u32,
+    /// Where zero-velocity updates fired: (first s, last s, updates) per
+    /// stretch (updates at most 0.5 s apart).
+    pub zupt_spans: Vec<(f64, f64, u32)>,
+}
+
+/// The stretches of zero-velocity updates in `run`.
+fn zupt_spans(run: &AidedRun) -> Vec<(f64, f64, u32)> {
+    let mut spans: Vec<(f64, f64, u32)> = vec![];
+    for r in run.rows.iter().filter(|r| r.zupt) {
+        let t = r.traj.t_s;
+        match spans.last_mut() {
+            Some(s) if t - s.1 <= 0.5 => {
+                s.1 = t;
+                s.2 += 1;
+            }
+            _ => spans.push((t, t, 1)),
+        }
+    }
+    spans
 }
 
 /// One outage's errors.
@@ -131,6 +150,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         rejected: run.rejected,
         refused: run.refused,
         faults: run.faults,
+        zupt_spans: zupt_spans(run),
         ..AidedSummary::default()
     };
     let fix_rows: Vec<usize> = (0..run.rows.len()).filter(|i| run.rows[*i].fix).collect();
@@ -272,6 +292,24 @@ impl AidedSummary {
             "zero-velocity updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
             self.zupts, self.rejected, self.refused, self.faults, self.reinits
         );
+        if !self.zupt_spans.is_empty() {
+            let shown: Vec<String> = self
+                .zupt_spans
+                .iter()
+                .take(6)
+                .map(|(a, b, n)| format!("{a:.1}-{b:.1} s ({n})"))
+                .collect();
+            o += &format!(
+                "  the updates fired in {} stillness stretches: {}{}\n",
+                self.zupt_spans.len(),
+                shown.join(", "),
+                if self.zupt_spans.len() > 6 {
+                    ", ... (all in --json)"
+                } else {
+                    ""
+                }
+            );
+        }
         o
     }
 
