@@ -335,11 +335,22 @@ impl RefusedFix<f32> {
 }
 
 /// The median of the first `n` of `v` (the upper one of an even count).
+/// An insertion sort of at most [`START_EVALS`] values: core's sorts can
+/// panic on an inconsistent order (NaN), and a board has no panic path.
 fn median<T: Real>(v: &[T; START_EVALS], n: usize) -> T {
     let mut w = *v;
-    let part = w.get_mut(..n.min(START_EVALS)).unwrap_or(&mut []);
-    part.sort_unstable_by(|a, b| a.partial_cmp(b).unwrap_or(core::cmp::Ordering::Equal));
-    part.get(part.len() / 2).copied().unwrap_or(T::zero())
+    let n = n.min(START_EVALS);
+    for i in 1..n {
+        let mut j = i;
+        while j > 0 {
+            match (w.get(j - 1).copied(), w.get(j).copied()) {
+                (Some(a), Some(b)) if b < a => w.swap(j - 1, j),
+                _ => break,
+            }
+            j -= 1;
+        }
+    }
+    w.get(n / 2).copied().unwrap_or(T::zero())
 }
 
 /// Two fixes with velocity agree: `b` where `a`, moved at their mean
@@ -993,5 +1004,21 @@ impl<T: Real> AidedNav<T> {
     /// start; 0 before its first evaluation).
     pub fn zupt_threshold(&self) -> T {
         self.zupt_gamma
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{median, START_EVALS};
+
+    #[test]
+    fn the_median_of_the_still_start_ignores_its_spin_up() {
+        let mut v = [0.0f64; START_EVALS];
+        v[..5].copy_from_slice(&[900.0, 2.0, 1.0, 3.0, 2.5]);
+        assert_eq!(median(&v, 5), 2.5);
+        assert_eq!(median(&v, 1), 900.0);
+        // A NaN neither panics nor moves the others far.
+        v[1] = f64::NAN;
+        assert!(median(&v, 5).is_finite() || median(&v, 5).is_nan());
     }
 }
