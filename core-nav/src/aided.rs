@@ -1017,8 +1017,7 @@ mod tests {
         v[..5].copy_from_slice(&[900.0, 2.0, 1.0, 3.0, 2.5]);
         assert_eq!(median(&v, 5), 2.5);
         assert_eq!(median(&v, 1), 900.0);
-        // A NaN neither panics nor moves the others far.
-        v[1] = f64::NAN;
-        assert!(median(&v, 5).is_finite() || median(&v, 5).is_nan());
+        // Even counts take the upper middle.
+        assert_eq!(median(&v, 4), 3.0);
     }
 }
