@@ -18,6 +18,33 @@ pub enum From {
     /// An RTKLIB `.pos` solution plus an IMU CSV described by a column map
     /// (rins-columns/1), its clock through an RTKLIB `.tag` file.
     Rtklib(RtklibArgs),
+    /// KF-GINS text files: IMU increments, GNSS positions with sigmas, an
+    /// optional reference (its start attitude becomes [base]).
+    KfGins(KfGinsArgs),
+}
+
+/// `rins import kf-gins`.
+#[derive(clap::Args)]
+pub struct KfGinsArgs {
+    /// The IMU file (seconds of week, dtheta xyz rad, dv xyz m/s).
+    #[arg(long)]
+    pub imu: PathBuf,
+    /// The GNSS file (seconds of week, lat, lon, h, sigma n e d; or 13
+    /// columns with velocity).
+    #[arg(long)]
+    pub gnss: PathBuf,
+    /// The reference (week, sow, lat, lon, h, vn ve vd, roll pitch yaw).
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// The sensor: a shipped name or a sensor file.
+    #[arg(long)]
+    pub sensor: String,
+    /// The recording directory to write (must not exist).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write what was counted as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// `rins import rtklib`.
@@ -55,7 +82,42 @@ pub struct RtklibArgs {
 pub fn run(a: &Args) -> Result<()> {
     match &a.from {
         From::Rtklib(r) => rtklib(r),
+        From::KfGins(k) => kf_gins(k),
     }
+}
+
+fn kf_gins(a: &KfGinsArgs) -> Result<()> {
+    if a.out.exists() {
+        bail!(
+            "{} exists: a recording is never rewritten in place",
+            a.out.display()
+        );
+    }
+    let input = import::kfgins::KfGinsInput {
+        imu: a.imu.clone(),
+        gnss: a.gnss.clone(),
+        truth: a.truth.clone(),
+        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+    };
+    let (rec, rep) = import::kfgins::import(&input)?;
+    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
+    println!(
+        "wrote {}: {} IMU samples ({:.1} Hz), {} fixes ({} outside the IMU's span){}",
+        a.out.display(),
+        rep.imu_samples,
+        rep.imu_rate_found_hz,
+        rep.fixes,
+        rep.fixes_outside,
+        if a.truth.is_some() {
+            ", truth.csv from the reference"
+        } else {
+            ""
+        }
+    );
+    if let Some(j) = &a.json {
+        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
+    }
+    Ok(())
 }
 
 fn rtklib(a: &RtklibArgs) -> Result<()> {

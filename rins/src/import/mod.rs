@@ -7,8 +7,11 @@
 //! - [`rtklib`]: an RTKLIB `.pos` solution plus an IMU CSV described by a
 //!   column map ([`columns`]), its clock put on GPST through an RTKLIB
 //!   `.tag` file ([`tag`]) or already GPST.
+//! - [`kfgins`]: KF-GINS text files (IMU increments, GNSS with sigmas, a
+//!   reference).
 
 pub mod columns;
+pub mod kfgins;
 pub mod rtklib;
 pub mod tag;
 
