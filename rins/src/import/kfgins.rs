@@ -72,7 +72,7 @@ fn times(path: &Path, r: &[(usize, Vec<f64>)], col: usize) -> Result<Vec<f64>> {
     r.iter()
         .map(|(line, v)| {
             let t = v.get(col).copied().unwrap_or(f64::NAN);
-            if !(t > prev) {
+            if t.partial_cmp(&prev) != Some(std::cmp::Ordering::Greater) {
                 bail!("{}:{line}: time {t} does not increase", path.display());
             }
             prev = t;
