@@ -280,8 +280,8 @@ pub struct AidedNav<T: Real> {
     cfg: AidedConfig,
     origin: OriginE7,
     lever_b: Vector3<T>,
-    /// (w_ib_b, f_b) of the last samples, a ring.
-    window: [(Vector3<T>, Vector3<T>); ZUPT_WINDOW],
+    /// The last samples' rotation and specific force, a ring.
+    window: [Seen<T>; ZUPT_WINDOW],
     /// The detector's threshold (learnt from the still start), the
     /// start's largest statistic and mean rotation so far, the mean
     /// rotation's limit.
@@ -387,6 +387,26 @@ fn agree_positions<T: Real>(a: &RefusedFix<T>, b: &RefusedFix<T>, c: &RefusedFix
     (v2 - v1).xy().norm().to_f64() <= tol
 }
 
+/// One sample as the zero-velocity detector keeps it: the rotation with
+/// the table's removed and the specific force, in the base's frame and in
+/// the sensor's (rad/s, m/s^2).
+#[derive(Clone, Copy, Debug, Default)]
+struct Seen<T: Real> {
+    w_b: Vector3<T>,
+    f_b: Vector3<T>,
+    w_s: Vector3<T>,
+    f_s: Vector3<T>,
+}
+
+impl Seen<f32> {
+    const BLANK: Self = Self {
+        w_b: crate::real::zeros_f32(),
+        f_b: crate::real::zeros_f32(),
+        w_s: crate::real::zeros_f32(),
+        f_s: crate::real::zeros_f32(),
+    };
+}
+
 /// A stored navigation state: what a fix's innovation needs at its time
 /// of validity.
 #[derive(Clone, Copy, Debug)]
@@ -460,7 +480,7 @@ impl AidedNav<f32> {
             height_mm: 0,
         },
         lever_b: crate::real::zeros_f32(),
-        window: [(crate::real::zeros_f32(), crate::real::zeros_f32()); ZUPT_WINDOW],
+        window: [Seen::BLANK; ZUPT_WINDOW],
         zupt_gamma: 0.0,
         start_stats: [0.0; START_EVALS],
         start_rots: [0.0; START_EVALS],
@@ -538,7 +558,7 @@ impl<T: Real> AidedNav<T> {
             cfg,
             origin,
             lever_b: Vector3::from(cfg.antenna_b_m).map(T::lit),
-            window: [(Vector3::zeros(), Vector3::zeros()); ZUPT_WINDOW],
+            window: [Seen::default(); ZUPT_WINDOW],
             zupt_gamma: T::zero(),
             start_stats: [T::zero(); START_EVALS],
             start_rots: [T::zero(); START_EVALS],
@@ -582,7 +602,7 @@ impl<T: Real> AidedNav<T> {
         self.cfg = cfg;
         self.origin = origin;
         self.lever_b = Vector3::from(cfg.antenna_b_m).map(T::lit);
-        self.window.fill((Vector3::zeros(), Vector3::zeros()));
+        self.window.fill(Seen::default());
         self.head = 0;
         self.filled = 0;
         self.steps = 0;
@@ -765,7 +785,12 @@ impl<T: Real> AidedNav<T> {
         let k = self.cfg.axis.unit::<T>();
         let w_ib_b = csb * (s.w_is_s - k * table_rate);
         if let Some(slot) = self.window.get_mut(self.head) {
-            *slot = (w_ib_b, csb * s.f_s);
+            *slot = Seen {
+                w_b: w_ib_b,
+                f_b: csb * s.f_s,
+                w_s: s.w_is_s - k * table_rate,
+                f_s: s.f_s,
+            };
         }
         self.head = (self.head + 1) % ZUPT_WINDOW;
         self.filled = (self.filled + 1).min(ZUPT_WINDOW);
@@ -939,24 +964,43 @@ impl<T: Real> AidedNav<T> {
     }
 
     /// The detector's statistic on the window (see the module: about 1
-    /// for a still ideal sensor) and its mean rotation, rad/s.
+    /// for a still ideal sensor) and its mean rotation, rad/s. The spreads
+    /// are taken in the base's frame and in the sensor's, and the smaller
+    /// counts: on a still base a bias across a spinning table turns in the
+    /// base's frame and is fixed in the sensor's, gravity across a tilted
+    /// table axis the other way round; a moving base shakes in both.
     fn statistic(&self) -> (T, T) {
         let n = T::lit(ZUPT_WINDOW as f64);
-        let zero = (Vector3::<T>::zeros(), Vector3::<T>::zeros());
-        let (sw, sf) = self
+        let sum = self
             .window
             .iter()
-            .fold(zero, |a, (w, f)| (a.0 + w, a.1 + f));
-        let (mw, mf) = (sw / n, sf / n);
+            .fold(Seen::default(), |a: Seen<T>, x| Seen {
+                w_b: a.w_b + x.w_b,
+                f_b: a.f_b + x.f_b,
+                w_s: a.w_s + x.w_s,
+                f_s: a.f_s + x.f_s,
+            });
+        let m = Seen {
+            w_b: sum.w_b / n,
+            f_b: sum.f_b / n,
+            w_s: sum.w_s / n,
+            f_s: sum.f_s / n,
+        };
         let zn = &self.cfg.zupt_noise;
         let (vf, vw) = (
             T::lit(zn.sigma_f_mps2 * zn.sigma_f_mps2),
             T::lit(zn.sigma_w_radps * zn.sigma_w_radps),
         );
-        let sum = self.window.iter().fold(T::zero(), |a, (w, f)| {
-            a + (f - mf).norm_squared() / vf + (w - mw).norm_squared() / vw
+        let (sb, ss) = self.window.iter().fold((T::zero(), T::zero()), |a, x| {
+            (
+                a.0 + (x.f_b - m.f_b).norm_squared() / vf + (x.w_b - m.w_b).norm_squared() / vw,
+                a.1 + (x.f_s - m.f_s).norm_squared() / vf + (x.w_s - m.w_s).norm_squared() / vw,
+            )
         });
-        (sum / T::lit(6.0 * ZUPT_WINDOW as f64 - 6.0), mw.norm())
+        (
+            sb.min(ss) / T::lit(6.0 * ZUPT_WINDOW as f64 - 6.0),
+            m.w_b.norm(),
+        )
     }
 
     /// The threshold's cap: the statistic of a base shaking with a spread
