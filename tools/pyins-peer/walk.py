@@ -1,0 +1,125 @@
+#!/usr/bin/env python3
+"""The real walk through pyins's INS/GNSS filter (PyPI `python-ins`), on
+the same recording and the same outages as `rins navigate --gnss`: an
+independent implementation to set rins's figures beside. Not run in CI.
+
+    python3 -m venv /tmp/pyins && /tmp/pyins/bin/pip install python-ins
+    rins import rtklib ... --out runs/walk          (see the README)
+    rins navigate runs/walk --gnss --sensor icm42605 --out runs/walk-nav
+    /tmp/pyins/bin/python tools/pyins-peer/walk.py runs/walk runs/walk-nav \
+        --outage 20:10 --outage 45:10 --outage 70:10 --outage 95:10
+
+What pyins gets, and from where (rins's own recording, nothing more):
+- the IMU samples of imu.csv (already in the base frame, FRD), as rates;
+- the fixes of gnss.csv outside the outages: positions (RTK fixed and
+  float as two measurements, each with its floor: 0.02 and 0.3 m, the
+  floors rins applies) and NED velocities (0.05 m/s);
+- the start attitude rins's alignment found (trajectory.csv's first row)
+  with its 1-sigma, and the sensor's datasheet noise and turn-on biases
+  (sensors/icm42605.toml's figures).
+It prints, per outage, the horizontal error at its end against the
+withheld fix, pyins's 1-sigma there and the share of the outage inside 3
+sigma: the columns rins's summary prints.
+"""
+import argparse
+import csv
+import math
+
+import numpy as np
+import pandas as pd
+import pyins
+from pyins import filters, inertial_sensor, measurements, strapdown, transform
+
+DEG = math.pi / 180
+G0 = 9.80665
+
+
+class FloatPosition(measurements.Position):
+    """RTK float fixes (their own sigma)."""
+
+
+def read_csv(path):
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("rec")
+    ap.add_argument("nav", help="rins navigate's output (its first row: the alignment)")
+    ap.add_argument("--outage", action="append", default=[], help="START:LEN, s")
+    a = ap.parse_args()
+    outages = [tuple(float(x) for x in o.split(":")) for o in a.outage]
+
+    imu = pd.DataFrame(read_csv(f"{a.rec}/imu.csv")).astype(float)
+    imu = imu.set_index("t_s")
+    imu = imu.rename(columns={
+        "gyro_x_radps": "gyro_x", "gyro_y_radps": "gyro_y", "gyro_z_radps": "gyro_z",
+        "accel_x_mps2": "accel_x", "accel_y_mps2": "accel_y", "accel_z_mps2": "accel_z"})
+    increments = strapdown.compute_increments_from_imu(imu, "rate")
+
+    fixes = pd.DataFrame(read_csv(f"{a.rec}/gnss.csv")).astype(float).set_index("t_s")
+    inside = np.zeros(len(fixes), dtype=bool)
+    for s, l in outages:
+        inside |= (fixes.index >= s) & (fixes.index < s + l)
+    used = fixes[~inside]
+    # Fixes at their own times, inside the increments' span and off the
+    # samples' (pyins predicts to a fix between two samples; a fix on a
+    # sample's time duplicates that time in its trajectory).
+    grid = increments.index.values
+    lla = used.rename(columns={"lat_deg": "lat", "lon_deg": "lon", "height_m": "alt"})
+    lla = lla[(lla.index > grid[0]) & (lla.index < grid[-1])]
+    lla = lla[~np.isin(lla.index.values, grid)]
+    meas = []
+    # One class per solution type: pyins files innovations by class name.
+    kinds = [(1, 0.02, measurements.Position), (2, 0.3, FloatPosition)]
+    for q, sd, kind in kinds:
+        part = lla[lla["quality"] == q] if "quality" in lla else lla
+        if len(part):
+            meas.append(kind(part[["lat", "lon", "alt"]], sd))
+    if "vn_mps" in lla:
+        v = lla.rename(columns={"vn_mps": "VN", "ve_mps": "VE", "vd_mps": "VD"})
+        meas.append(measurements.NedVelocity(v[["VN", "VE", "VD"]], 0.05))
+
+    nav = read_csv(f"{a.nav}/trajectory.csv")
+    first = nav[0]
+    f0 = fixes.iloc[0]
+    pva = pd.Series({
+        "lat": f0["lat_deg"], "lon": f0["lon_deg"], "alt": f0["height_m"],
+        "VN": 0.0, "VE": 0.0, "VD": 0.0,
+        "roll": float(first["roll_deg"]), "pitch": float(first["pitch_deg"]),
+        "heading": float(first["heading_deg"])})
+    pva.name = imu.index[0]  # the first increment ends at the second sample
+
+    # sensors/icm42605.toml: gyro 0.0038 deg/s/sqrt(Hz), turn-on 1 deg/s;
+    # accel 70 ug/sqrt(Hz), turn-on 20 mg; scale 0.5 %, cross-axis 1.25 %.
+    gyro = inertial_sensor.EstimationModel(
+        bias_sd=1.0 * DEG, noise=0.0038 * DEG, bias_walk=5 * DEG / 3600 / 10,
+        scale_misal_sd=np.full((3, 3), 0.0125 / math.sqrt(2)) + np.diag([0.005 - 0.0125 / math.sqrt(2)] * 3))
+    accel = inertial_sensor.EstimationModel(
+        bias_sd=20e-3 * G0, noise=70e-6 * G0, bias_walk=0.04e-3 * G0 / 10,
+        scale_misal_sd=np.full((3, 3), 0.01 / math.sqrt(2)) + np.diag([0.005 - 0.01 / math.sqrt(2)] * 3))
+    r = filters.run_feedback_filter(
+        pva, 1.0, 0.05, float(first["sigma_roll_deg"]), float(first["sigma_heading_deg"]),
+        increments, gyro, accel, meas, time_step=10 * float(np.median(np.diff(grid))))
+    traj, sd = r.trajectory, r.trajectory_sd
+
+    for s, l in outages:
+        w = fixes[(fixes.index >= s) & (fixes.index < s + l)]
+        rows = []
+        for t, f in w.iterrows():
+            k = traj.index.get_indexer([t], method="nearest")[0]
+            e = transform.compute_lla_difference(
+                traj.iloc[k][["lat", "lon", "alt"]],
+                pd.Series({"lat": f["lat_deg"], "lon": f["lon_deg"], "alt": f["height_m"]}))
+            j = sd.index.get_indexer([t], method="nearest")[0]
+            sig = math.hypot(sd.iloc[j]["north"], sd.iloc[j]["east"])
+            rows.append((math.hypot(e[0], e[1]), sig))
+        end, sig = rows[-1]
+        share = sum(1 for e, sg in rows if e <= 3 * sg) / len(rows)
+        print(f"pyins: outage at {s:.0f} s for {l:.0f} s: horizontal error at its end "
+              f"{end:.2f} m, 1-sigma {sig:.1f} m, {100 * share:.0f} % inside 3 sigma")
+
+
+if __name__ == "__main__":
+    main()
