@@ -14,23 +14,9 @@ const STEP: usize = 50;
 
 /// The antenna fixes of `rec` as (east, north) m from its site point.
 pub fn fixes_en(rec: &Recording) -> Vec<(f64, f64)> {
-    let Some(mv) = rec.moving.as_ref() else {
-        return vec![];
-    };
-    let origin = core_nav::earth::GeoPoint::from_deg(
-        rec.meta.latitude_deg,
-        mv.longitude_deg,
-        rec.meta.height_m,
-    );
-    mv.gnss
+    super::summary::receiver_reference(rec)
         .iter()
-        .flatten()
-        .map(|f| {
-            let d = origin.ned_to(&core_nav::earth::GeoPoint::from_deg(
-                f.lat_deg, f.lon_deg, f.height_m,
-            ));
-            (d.y, d.x)
-        })
+        .map(|r| (r.p_n_m[1], r.p_n_m[0]))
         .collect()
 }
 

@@ -81,7 +81,7 @@ pub struct OutageError {
 /// The receiver's solution as a reference: each fix's position as offsets
 /// from the site (NED, m) and its velocity (the antenna's, a lever arm
 /// from the base's point; attitude unknown).
-fn receiver_reference(rec: &Recording) -> Vec<recording::moving::TruthRow> {
+pub(crate) fn receiver_reference(rec: &Recording) -> Vec<recording::moving::TruthRow> {
     let Some(mv) = rec.moving.as_ref() else {
         return vec![];
     };

@@ -82,14 +82,7 @@ pub fn run(a: &Args) -> Result<()> {
         println!("wrote {}", p.display());
     }
     if let Some(p) = &a.sensor_out {
-        let base = match &a.sensor {
-            Some(n) => Some(hal_sim::sensor::resolve(n)?),
-            None => rec
-                .meta
-                .imu_model
-                .as_deref()
-                .and_then(hal_sim::imu::ImuSpec::by_model),
-        };
+        let base = super::base_sensor(a.sensor.as_deref(), &rec)?;
         write_file(p, &rins::diagnose::sensor_out::sensor_file(&d, base, &name))?;
         println!(
             "wrote {} (rins-sensor/1: what the findings measured)",

@@ -96,3 +96,16 @@ pub fn write_file(p: &Path, text: &str) -> Result<()> {
     }
     std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
 }
+
+/// The sensor a `--sensor-out` file starts from: `name` (a shipped name or
+/// a file), else the one the recording's `[imu] model` names, else none.
+pub fn base_sensor(name: Option<&str>, rec: &Recording) -> Result<Option<hal_sim::imu::ImuSpec>> {
+    Ok(match name {
+        Some(n) => Some(hal_sim::sensor::resolve(n)?),
+        None => rec
+            .meta
+            .imu_model
+            .as_deref()
+            .and_then(hal_sim::imu::ImuSpec::by_model),
+    })
+}

@@ -21,13 +21,7 @@ pub struct PosEpoch {
 /// Seconds from 1970-01-01 of a calendar date and time (the proleptic
 /// Gregorian calendar; no leap seconds: GPST is continuous).
 pub fn calendar_s(y: i64, mo: i64, d: i64, h: i64, mi: i64, s: f64) -> f64 {
-    let y2 = if mo <= 2 { y - 1 } else { y };
-    let era = y2.div_euclid(400);
-    let yoe = y2 - era * 400;
-    let mp = (mo + 9) % 12;
-    let doy = (153 * mp + 2) / 5 + d - 1;
-    let doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-    let days = era * 146_097 + doe - 719_468;
+    let days = crate::ubx::days_from_civil(y, mo, d);
     (days * 86_400 + h * 3600 + mi * 60) as f64 + s
 }
 
