@@ -66,6 +66,10 @@ pub struct Args {
         requires = "gnss"
     )]
     pub gnss_floor_m: Option<Vec<f64>>,
+    /// The innovation gate, sigmas (a fix component farther off is
+    /// rejected and counted).
+    #[arg(long, default_value_t = 6.0, requires = "gnss")]
+    pub gate_sigma: f64,
     /// Use only the fixes' positions (not their velocity).
     #[arg(long, requires = "gnss")]
     pub gnss_position_only: bool,
@@ -164,7 +168,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let opt = rins::aided::AidedOptions {
         profile,
         zupt: !a.no_zupt,
-        gate_sigma: 6.0,
+        gate_sigma: a.gate_sigma,
         f32: a.f32,
         outages: a
             .gnss_outages
