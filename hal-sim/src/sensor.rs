@@ -375,22 +375,12 @@ impl Reader<'_> {
 
     /// A finite, non-negative number (integers accepted).
     fn num(&self, table: &str, key: &str) -> Result<Option<f64>, SensorError> {
-        let Some(t) = self.table(Some(table))? else {
-            return Ok(None);
-        };
-        let name = Self::key_name(Some(table), key);
-        match t.get(key) {
-            None => Ok(None),
-            Some(v) => {
-                let x = v
-                    .as_float()
-                    .or_else(|| v.as_integer().map(|i| i as f64))
-                    .ok_or_else(|| self.err(format!("{name} must be a number")))?;
-                if !x.is_finite() || x < 0.0 {
-                    return Err(self.err(format!("{name} = {x}: must be finite and >= 0")));
-                }
-                Ok(Some(x))
-            }
+        match self.signed(table, key)? {
+            Some(x) if x < 0.0 => Err(self.err(format!(
+                "{} = {x}: must be finite and >= 0",
+                Self::key_name(Some(table), key)
+            ))),
+            x => Ok(x),
         }
     }
 

@@ -53,49 +53,62 @@ pub fn sensor_file(d: &Diagnosis, base: Option<ImuSpec>, what: &str) -> String {
         format!("Written by rins diagnose from {what}: the terms its findings measured"),
         format!("(the RMS over the axes they were found on); the rest is {from:?}'s."),
     ];
-    let mut set = |name: &str, slot: &mut f64, v: Option<f64>| {
-        if let Some(v) = v {
-            *slot = v;
-            notes.push(format!("measured: {name}"));
-        }
-    };
-    set(
-        "gyro g-sensitivity",
-        &mut s.g_sensitivity,
-        rms_of(d, EffectId::GyroGSensitivity, "g_sens_", "_radps_per_mps2"),
-    );
-    set(
-        "gyro scale nonlinearity",
-        &mut s.gyro.k2,
-        rms_of(d, EffectId::GyroScaleNonlinearity, "k2_", "_per_radps"),
-    );
-    set(
-        "gyro scale asymmetry",
-        &mut s.gyro.asymmetry,
-        rms_of(d, EffectId::GyroScaleAsymmetry, "asymmetry_", ""),
-    );
-    set(
-        "accel scale nonlinearity",
-        &mut s.accel.k2,
-        rms_of(d, EffectId::AccelScaleNonlinearity, "k2_", "_per_mps2"),
-    );
-    set(
-        "gyro bias temperature coefficient",
-        &mut s.gyro.temp_bias,
-        rms_of(
-            d,
+    // (what, the finding, its parameters' prefix and suffix, the field).
+    type Field = fn(&mut ImuSpec) -> &mut f64;
+    let measured: [(&str, EffectId, &str, &str, Field); 6] = [
+        (
+            "gyro g-sensitivity",
+            EffectId::GyroGSensitivity,
+            "g_sens_",
+            "_radps_per_mps2",
+            |s| &mut s.g_sensitivity,
+        ),
+        (
+            "gyro scale nonlinearity",
+            EffectId::GyroScaleNonlinearity,
+            "k2_",
+            "_per_radps",
+            |s| &mut s.gyro.k2,
+        ),
+        (
+            "gyro scale asymmetry",
+            EffectId::GyroScaleAsymmetry,
+            "asymmetry_",
+            "",
+            |s| &mut s.gyro.asymmetry,
+        ),
+        (
+            "accel scale nonlinearity",
+            EffectId::AccelScaleNonlinearity,
+            "k2_",
+            "_per_mps2",
+            |s| &mut s.accel.k2,
+        ),
+        (
+            "gyro bias temperature coefficient",
             EffectId::TemperatureBias,
             "temp_bias_",
             "_radps_per_degc",
+            |s| &mut s.gyro.temp_bias,
         ),
-    );
-    set(
-        "accel bias temperature coefficient",
-        &mut s.accel.temp_bias,
-        rms_of(d, EffectId::TemperatureBias, "temp_bias_", "_mps2_per_degc"),
-    );
-    let lat = mean_of(d, EffectId::TimeOffset, "time_offset_s");
-    set("latency", &mut s.latency_s, lat);
+        (
+            "accel bias temperature coefficient",
+            EffectId::TemperatureBias,
+            "temp_bias_",
+            "_mps2_per_degc",
+            |s| &mut s.accel.temp_bias,
+        ),
+    ];
+    for (name, effect, prefix, suffix, field) in measured {
+        if let Some(v) = rms_of(d, effect, prefix, suffix) {
+            *field(&mut s) = v;
+            notes.push(format!("measured: {name}"));
+        }
+    }
+    if let Some(l) = mean_of(d, EffectId::TimeOffset, "time_offset_s") {
+        s.latency_s = l;
+        notes.push("measured: latency".into());
+    }
     if let Some(a) = mean_of(d, EffectId::TimeOffset, "accel_time_offset_s") {
         s.accel_latency_s = Some(a);
         notes.push("measured: accelerometer latency".into());
