@@ -38,6 +38,19 @@
 //! the next step, so that how the fixes' epochs fall against the sample
 //! count never thins the updates.
 //!
+//! **Zero rotation**: a still base does not turn, so the gyros, the
+//! table's rate (the encoder's) taken out, read the earth's rate; once per
+//! still window (windows that do not overlap: independent measurements)
+//! their mean is an update of the gyro biases and scale/misalignment
+//! ([`crate::eskf::Eskf::update_rate`]). On a spinning table this is what
+//! holds the gyro along the axis, whose bias and scale error times the
+//! table's rate turn the heading while the vehicle waits (0.9 deg/s on an
+//! ICM-42688-P: 8 deg in a 10 s stop, which linearised updates then
+//! spread into the level and the accelerometer biases when it drives
+//! off), and it parts a bias across the axis, which tilts the level by
+//! `bias / rate` in the sensor's frame, from an accelerometer bias that
+//! the fixes cannot tell from that tilt.
+//!
 //! **GNSS fixes** come as a receiver gives them ([`GnssFix`]: latitude and
 //! longitude in 1e-7 deg, height and velocity in mm, mm/s): the position
 //! offset from the origin is formed from the integer difference (exact),
@@ -78,8 +91,18 @@ pub const ZUPT_MEAN_GYRO_RADPS: f64 = 0.0087;
 /// `6 W - 6` degrees of freedom per degree of freedom, `1 + 3.09
 /// sqrt(2 / (6 W - 6))` (its normal approximation).
 const ZUPT_NOISE_BOUND: f64 = 1.0 + 3.09 * 0.082_479;
-/// Zero-velocity measurement 1-sigma, m/s.
+/// Zero-velocity measurement 1-sigma at most, m/s (a window the detector
+/// calls still whose own force wanders more is not quite still).
 pub const ZUPT_SIGMA_MPS: f64 = 0.02;
+/// Zero-velocity measurement 1-sigma at least, m/s: a parked vehicle's
+/// rocking and a stance's sway slower than the detector's window, which
+/// its force's wander over the window cannot show.
+pub const ZUPT_FLOOR_MPS: f64 = 0.002;
+/// The zero-rotation update's 1-sigma floor, rad/s: the earth's rate
+/// lagging half a window behind a turning table in the window's mean
+/// (`|w_ie| sin(rate T / 2)`, 1e-5 rad/s at 30 deg/s) and a parked
+/// vehicle settling on its suspension, taken as 1e-4 rad/s (20 deg/h).
+pub const ZARU_FLOOR_RADPS: f64 = 1e-4;
 /// The detector runs, and a zero-velocity update is made, every this many
 /// samples.
 pub const ZUPT_EVERY: u32 = 10;
@@ -237,6 +260,19 @@ pub struct ZuptNoise {
     pub sigma_f_mps2: f64,
     /// Rotation rate, 1-sigma per sample and axis, rad/s.
     pub sigma_w_radps: f64,
+    /// The table rate's error averaged over a window, 1-sigma, rad/s
+    /// ([`table_rate_sigma_radps`]; 0 without a table).
+    pub sigma_table_rate_radps: f64,
+}
+
+/// The table rate's 1-sigma error averaged over the detector's window
+/// (rad/s), the encoder's angle read with 1-sigma `read_sigma_rad` (a
+/// quantum `q`'s is `q / sqrt(12)`) and the IMU sampled at `rate_hz`: the
+/// window's mean rate is its two ends' angle difference over its length,
+/// `sqrt(2) sigma / T`.
+pub fn table_rate_sigma_radps(read_sigma_rad: f64, rate_hz: f64) -> f64 {
+    let t = ZUPT_WINDOW as f64 / rate_hz;
+    core::f64::consts::SQRT_2 * read_sigma_rad / t
 }
 
 /// What the navigator has counted.
@@ -246,6 +282,8 @@ pub struct AidedCounts {
     pub steps_refused: u32,
     /// Zero-velocity updates made.
     pub zupts: u32,
+    /// Zero-rotation updates made (one per still window).
+    pub zarus: u32,
     /// Fixes used (at least one component).
     pub fixes_used: u32,
     /// Fixes replaced by a newer one before a step could use them.
@@ -269,6 +307,8 @@ pub struct AidedStep<T: Real> {
     pub still: bool,
     /// A zero-velocity update was made at this sample.
     pub zupt: bool,
+    /// A zero-rotation update was made at this sample.
+    pub zaru: bool,
 }
 
 /// The aided navigator.
@@ -296,6 +336,9 @@ pub struct AidedNav<T: Real> {
     still: bool,
     /// A detector evaluation is due (deferred past a step that took a fix).
     zupt_due: bool,
+    /// The step of the last zero-rotation update (its windows do not
+    /// overlap: each is an independent measurement).
+    zaru_at: u32,
     /// The fix handed over, and its time of validity when it has one
     /// (two fields, not one `Option` of a pair: a pair's `None` is not all
     /// zeros, and a board's blank static belongs in `.bss`).
@@ -443,7 +486,7 @@ impl AidedConfig {
             gate_sigma: 0.0,
             gyro_scale_sigma: 0.0,
             gyro_misalignment_sigma: 0.0,
-            gyro_scale_rw: 0.0,
+            warmup: crate::eskf::WarmupDrift::NONE,
             accel_scale_sigma: 0.0,
             accel_misalignment_sigma: 0.0,
             gnss_corr_sigma_m: [0.0; 2],
@@ -461,6 +504,7 @@ impl AidedConfig {
         zupt_noise: ZuptNoise {
             sigma_f_mps2: 0.0,
             sigma_w_radps: 0.0,
+            sigma_table_rate_radps: 0.0,
         },
     };
 }
@@ -491,6 +535,7 @@ impl AidedNav<f32> {
         steps: 0,
         still: false,
         zupt_due: false,
+        zaru_at: 0,
         pending: None,
         pending_at: None,
         refused_fixes: [RefusedFix::BLANK; REINIT_FIXES],
@@ -500,6 +545,7 @@ impl AidedNav<f32> {
         counts: AidedCounts {
             steps_refused: 0,
             zupts: 0,
+            zarus: 0,
             fixes_used: 0,
             fixes_replaced: 0,
             corrections_refused: 0,
@@ -569,6 +615,7 @@ impl<T: Real> AidedNav<T> {
             steps: 0,
             still: false,
             zupt_due: false,
+            zaru_at: 0,
             pending: None,
             pending_at: None,
             refused_fixes: [RefusedFix::default(); REINIT_FIXES],
@@ -608,6 +655,7 @@ impl<T: Real> AidedNav<T> {
         self.steps = 0;
         self.still = false;
         self.zupt_due = false;
+        self.zaru_at = 0;
         self.zupt_gamma = T::zero();
         self.start_stats.fill(T::zero());
         self.start_rots.fill(T::zero());
@@ -828,10 +876,22 @@ impl<T: Real> AidedNav<T> {
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
             if self.still && self.evals > ZUPT_START_EVALS {
                 let z = -st.v_n;
-                let sigma = Vector3::repeat(T::lit(ZUPT_SIGMA_MPS));
-                if self.kf.update_velocity_opt(&z, &sigma, ws).is_ok() {
+                let sigma = Vector3::repeat(self.zupt_sigma(dt));
+                if self
+                    .kf
+                    .update_velocity_opt(&z, &sigma, ws.as_deref_mut())
+                    .is_ok()
+                {
                     self.counts.zupts = self.counts.zupts.saturating_add(1);
                     out.zupt = true;
+                }
+                if self.steps.wrapping_sub(self.zaru_at) >= ZUPT_WINDOW as u32 {
+                    self.zaru_at = self.steps;
+                    let w_ie_s = c_s_n.transpose() * w_ie;
+                    if self.zero_rotation(&w_ie_s, table_rate, ws).is_ok() {
+                        self.counts.zarus = self.counts.zarus.saturating_add(1);
+                        out.zaru = true;
+                    }
                 }
                 corrected = true;
             }
@@ -961,6 +1021,75 @@ impl<T: Real> AidedNav<T> {
                 _ => false,
             });
         pairs && triples
+    }
+
+    /// The zero-rotation update on the still window: the corrected gyros'
+    /// mean in `s` with the table's rate taken out (the window holds it)
+    /// against the earth's rate `w_ie_s` (rad/s, `s`), each axis's
+    /// 1-sigma the mean's own (the window's scatter over `sqrt(W)`: a
+    /// shaking base's), the white noise's, the table rate's along its axis
+    /// and [`ZARU_FLOOR_RADPS`], in quadrature.
+    fn zero_rotation(
+        &mut self,
+        w_ie_s: &Vector3<T>,
+        table_rate: T,
+        ws: Option<&mut Workspace<T>>,
+    ) -> Result<crate::eskf::UpdateReport<T>, FilterError> {
+        let n = T::lit(ZUPT_WINDOW as f64);
+        let mean = self
+            .window
+            .iter()
+            .fold(Vector3::zeros(), |a: Vector3<T>, x| a + x.w_s)
+            / n;
+        let scatter = self
+            .window
+            .iter()
+            .fold(Vector3::zeros(), |a: Vector3<T>, x| {
+                a + (x.w_s - mean).component_mul(&(x.w_s - mean))
+            });
+        let zn = &self.cfg.zupt_noise;
+        let k = self.cfg.axis.unit::<T>();
+        let white = T::lit(zn.sigma_w_radps * zn.sigma_w_radps / ZUPT_WINDOW as f64);
+        let floor = T::lit(ZARU_FLOOR_RADPS * ZARU_FLOOR_RADPS);
+        let enc = T::lit(zn.sigma_table_rate_radps * zn.sigma_table_rate_radps);
+        let mean_var = (scatter / (n * (n - T::one()))).map(|v| v.max(white));
+        let var = mean_var + k.component_mul(&k) * enc;
+        let sigma = var.map(|v| (v + floor).sqrt_cr());
+        self.kf
+            .update_rate_opt(&(mean - w_ie_s), &(mean + k * table_rate), &sigma, ws)
+    }
+
+    /// The zero-velocity update's 1-sigma, m/s: the velocity the window's
+    /// own specific force wanders by about its mean (a rocking base's,
+    /// rms per axis, over samples `dt_s` apart, in whichever of the
+    /// base's and the sensor's frames it is smaller: as the detector's
+    /// spreads) and [`ZUPT_FLOOR_MPS`] in quadrature, at most
+    /// [`ZUPT_SIGMA_MPS`].
+    fn zupt_sigma(&self, dt_s: T) -> T {
+        let n = T::lit(ZUPT_WINDOW as f64);
+        let (mb, ms) = self.window.iter().fold(
+            (Vector3::zeros(), Vector3::zeros()),
+            |a: (Vector3<T>, Vector3<T>), x| (a.0 + x.f_b, a.1 + x.f_s),
+        );
+        let (mb, ms) = (mb / n, ms / n);
+        // In time order (the ring's oldest first), the running velocity
+        // change about the mean force, and its sums for the spread.
+        let (mut vb, mut vs) = (Vector3::<T>::zeros(), Vector3::<T>::zeros());
+        let (mut sb, mut ss, mut qb, mut qs) = (vb, vs, T::zero(), T::zero());
+        for i in 0..ZUPT_WINDOW {
+            if let Some(x) = self.window.get((self.head + i) % ZUPT_WINDOW) {
+                vb += (x.f_b - mb) * dt_s;
+                vs += (x.f_s - ms) * dt_s;
+                sb += vb;
+                ss += vs;
+                qb += vb.norm_squared();
+                qs += vs.norm_squared();
+            }
+        }
+        let spread = |q: T, s: Vector3<T>| (q / n - s.norm_squared() / (n * n)) / T::lit(3.0);
+        let var = spread(qb, sb).min(spread(qs, ss)).max(T::zero());
+        let floor = T::lit(ZUPT_FLOOR_MPS * ZUPT_FLOOR_MPS);
+        (var + floor).sqrt_cr().min(T::lit(ZUPT_SIGMA_MPS))
     }
 
     /// The detector's statistic on the window (see the module: about 1

@@ -65,6 +65,11 @@ impl EncoderScale {
         core::f64::consts::TAU / f64::from(self.counts_per_rev)
     }
 
+    /// One read's 1-sigma quantisation error, rad (`q / sqrt(12)`).
+    pub fn read_sigma_rad(&self) -> f64 {
+        self.rad_per_count() / libm::sqrt(12.0)
+    }
+
     /// An unwrapped count as an angle, rad (f64: exact to 2^53 counts).
     pub fn to_rad(&self, counts: i64) -> f64 {
         counts as f64 * core::f64::consts::TAU / f64::from(self.counts_per_rev)

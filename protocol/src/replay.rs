@@ -9,16 +9,20 @@
 //! and the records here are for the host's run of the same program.
 //!
 //! ```text
-//! header:  "RPLY" | u32 version (3) | u32 records | f64 lat_deg | f64 height_m
+//! header:  "RPLY" | u32 version (5) | u32 records | f64 lat_deg | f64 height_m
 //!          | 3 x f64 base roll, pitch, heading (deg) | f64 rate (rad/s) | u32 counts/rev
 //!          | u32 aided (0 / 1) | f64 lon_deg | 3 x f64 antenna in b (m)
-//!          | 17 x f64 filter: gyro ARW, accel VRW, gyro bias initial sigma,
+//!          | 20 x f64 filter: gyro ARW, accel VRW, gyro bias initial sigma,
 //!            sigma, tau, accel bias initial sigma, sigma, tau, gate, gyro
-//!            scale sigma, misalignment sigma, scale random walk, accel
+//!            scale sigma, misalignment sigma, warm-up tau, gyro bias,
+//!            accel bias and gyro scale drift over the warm-up, accel
 //!            scale sigma, misalignment sigma
 //!            sigma, GNSS correlated sigma h, v, tau (the units of
 //!            core_nav::eskf::EskfConfig)
 //!          | 4 x f64 initial sigma: position, velocity, level, heading
+//!          | 3 x f64 zero-velocity detector's noise: specific force
+//!            (m/s^2), rate (rad/s) per sample, table rate over a window
+//!            (rad/s)
 //!          | u32 zero-velocity updates (0 / 1)
 //!          | u32 configuration commands before the IMU powers up
 //!          | u32 fix latency (µs: a fix is sent this long after its time of validity)
@@ -39,9 +43,11 @@ use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::table::Axis;
 
 /// Bytes in the header.
-pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 17 + 4 + 2) * 8 + 4 + 8;
+pub const HEADER: usize = 12 + 6 * 8 + 4 + 4 + (1 + 3 + 20 + 4 + 3) * 8 + 4 + 8;
+/// The header's f64 fields after the fixed ones.
+const AIDED_F64: usize = 31;
 /// The format's version.
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 
 /// The board's configuration for the replay (the header's fields).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,8 +76,8 @@ pub struct Header {
 
 impl Header {
     /// The header's f64 fields after the fixed ones, in order.
-    fn aided_f64(&self) -> [f64; 27] {
-        let mut v = [0.0; 27];
+    fn aided_f64(&self) -> [f64; AIDED_F64] {
+        let mut v = [0.0; AIDED_F64];
         if let Some((lon, c)) = self.aided {
             let e = &c.eskf;
             let i = &c.initial;
@@ -93,7 +99,10 @@ impl Header {
                 e.gate_sigma,
                 e.gyro_scale_sigma,
                 e.gyro_misalignment_sigma,
-                e.gyro_scale_rw,
+                e.warmup.tau_s,
+                e.warmup.gyro_bias,
+                e.warmup.accel_bias,
+                e.warmup.gyro_scale,
                 e.accel_scale_sigma,
                 e.accel_misalignment_sigma,
                 gh,
@@ -105,6 +114,7 @@ impl Header {
                 i.heading_rad,
                 c.zupt_noise.sigma_f_mps2,
                 c.zupt_noise.sigma_w_radps,
+                c.zupt_noise.sigma_table_rate_radps,
             ];
         }
         v
@@ -175,24 +185,30 @@ impl Header {
                     gate_sigma: g(12)?,
                     gyro_scale_sigma: g(13)?,
                     gyro_misalignment_sigma: g(14)?,
-                    gyro_scale_rw: g(15)?,
-                    accel_scale_sigma: g(16)?,
-                    accel_misalignment_sigma: g(17)?,
-                    gnss_corr_sigma_m: [g(18)?, g(19)?],
-                    gnss_corr_tau_s: g(20)?,
+                    warmup: core_nav::eskf::WarmupDrift {
+                        tau_s: g(15)?,
+                        gyro_bias: g(16)?,
+                        accel_bias: g(17)?,
+                        gyro_scale: g(18)?,
+                    },
+                    accel_scale_sigma: g(19)?,
+                    accel_misalignment_sigma: g(20)?,
+                    gnss_corr_sigma_m: [g(21)?, g(22)?],
+                    gnss_corr_tau_s: g(23)?,
                 },
                 initial: InitialSigma {
-                    position_m: g(21)?,
-                    velocity_mps: g(22)?,
-                    level_rad: g(23)?,
-                    heading_rad: g(24)?,
+                    position_m: g(24)?,
+                    velocity_mps: g(25)?,
+                    level_rad: g(26)?,
+                    heading_rad: g(27)?,
                 },
                 axis: Axis::Z,
                 antenna_b_m: [g(1)?, g(2)?, g(3)?],
-                zupt: word(r, 68 + 8 * 27) == 1,
+                zupt: word(r, 68 + 8 * AIDED_F64) == 1,
                 zupt_noise: core_nav::aided::ZuptNoise {
-                    sigma_f_mps2: g(25)?,
-                    sigma_w_radps: g(26)?,
+                    sigma_f_mps2: g(28)?,
+                    sigma_w_radps: g(29)?,
+                    sigma_table_rate_radps: g(30)?,
                 },
             };
             Some((g(0)?, cfg))

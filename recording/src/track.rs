@@ -250,6 +250,12 @@ impl EncoderTrack {
         Self::new(t, a, q)
     }
 
+    /// The 1-sigma of one encoder read, rad (its quantum's `q / sqrt(12)`,
+    /// at least the floor a read without a grid is given).
+    pub fn read_sigma_rad(&self) -> f64 {
+        self.read_var.sqrt()
+    }
+
     /// Encoder read times, s.
     pub fn times(&self) -> &[f64] {
         &self.t

@@ -81,7 +81,13 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
         let lever = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
         header.aided = Some((
             mv.longitude_deg,
-            crate::aided::aided_config(m.axis, lever, &opt, m.imu_rate_hz),
+            crate::aided::aided_config(
+                m.axis,
+                lever,
+                &opt,
+                m.imu_rate_hz,
+                EncoderScale::new(counts_per_rev).read_sigma_rad(),
+            ),
         ));
         // Each fix at its own time of validity (the relay, `rins record
         // --gnss`, sends the same times): the board applies it from the

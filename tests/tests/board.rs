@@ -164,7 +164,16 @@ fn the_boards_filter_is_the_icm42688_profiles() {
         gnss_velocity: true,
         time_offset_s: 0.0,
     };
-    let want = rins::aided::aided_config(core_nav::table::Axis::Z, [0.0; 3], &o, 100.0);
+    let enc = core_nav::table::EncoderScale::new(
+        firmware::control::ControlConfig::default().counts_per_rev,
+    );
+    let want = rins::aided::aided_config(
+        core_nav::table::Axis::Z,
+        [0.0; 3],
+        &o,
+        100.0,
+        enc.read_sigma_rad(),
+    );
     assert_eq!(firmware::tuning::ICM42688_FILTER, want);
 }
 

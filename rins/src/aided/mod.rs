@@ -13,7 +13,7 @@
 use anyhow::{bail, Result};
 use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
 use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_dcm, quat_to_euler, Euler};
-use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
+use core_nav::eskf::{EskfConfig, InitialSigma, WarmupDrift, I_P, I_PHI, I_V};
 use core_nav::real::Real;
 use core_nav::strapdown::ImuSample;
 use core_nav::table::{Axis, TableAngle};
@@ -164,6 +164,8 @@ pub struct AidedRun {
     pub refused: u32,
     /// Zero-velocity updates made.
     pub zupts: u32,
+    /// Zero-rotation updates made (one per still window).
+    pub zarus: u32,
     /// Re-initialisations of position and velocity from fixes the gate
     /// kept refusing while they agreed among themselves.
     pub reinits: u32,
@@ -247,10 +249,10 @@ pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
 /// figures): white noise as given; each bias starts at its turn-on and
 /// instability 1-sigma, and moves in run as a Gauss-Markov process with
 /// the instability's correlation time whose process noise holds the
-/// instability (`2 sigma^2 / tau`), the rate random walk and the
-/// warm-up's temperature drift (`(k_T dT)^2 / tau_warmup`: the warm-up
-/// spread as a random walk over its time constant); the gyro scale
-/// drifts with the warm-up the same way. The turn-on bias is
+/// instability (`2 sigma^2 / tau`) and the rate random walk; the warm-up
+/// adds the temperature coefficients times its rise to the biases and the
+/// gyro scales ([`WarmupDrift`]: a random walk that fades with the
+/// warm-up's time constant). The turn-on bias is
 /// constant in a run: taken as process noise (as before), it let the
 /// ICM-42688-P's 0.5 deg/s turn-on bias grow the bias sigma by 0.1 deg/s
 /// per 100 s outage and made the filter pessimistic (NEES 0.65 per degree
@@ -265,17 +267,15 @@ pub fn filter_config(p: &ImuSpec, gate_sigma: f64) -> EskfConfig {
     // sensor's frame, with it: level NEES 16 per degree of freedom on
     // the ICM-42688-P); the in-run motion is its random walk, the density
     // the Gauss-Markov process has at its correlation time.
-    let in_run = |bi: f64, tau: f64, rrw: f64, temp: f64| {
+    let in_run = |bi: f64, tau: f64, rrw: f64| {
         let tau = if tau > 0.0 { tau } else { 3600.0 };
-        let q = 2.0 * bi * bi / tau
-            + rrw * rrw
-            + (temp * warm.warmup_c).powi(2) / warm.warmup_tau_s.max(1.0);
+        let q = 2.0 * bi * bi / tau + rrw * rrw;
         ((q * BIAS_HOLD_S / 2.0).sqrt(), BIAS_HOLD_S)
     };
     let g = &p.gyro;
     let a = &p.accel;
-    let (gs, gt) = in_run(g.bias_instability, g.bi_tau_s, g.rrw, g.temp_bias);
-    let (as_, at) = in_run(a.bias_instability, a.bi_tau_s, a.rrw, a.temp_bias);
+    let (gs, gt) = in_run(g.bias_instability, g.bi_tau_s, g.rrw);
+    let (as_, at) = in_run(a.bias_instability, a.bi_tau_s, a.rrw);
     EskfConfig {
         gyro_arw: g.white.max(1e-6),
         accel_vrw: a.white.max(1e-5),
@@ -290,7 +290,12 @@ pub fn filter_config(p: &ImuSpec, gate_sigma: f64) -> EskfConfig {
         gyro_misalignment_sigma: g.misalignment.max(1e-5),
         accel_scale_sigma: a.scale.max(1e-5),
         accel_misalignment_sigma: a.misalignment.max(1e-5),
-        gyro_scale_rw: g.temp_scale * warm.warmup_c / warm.warmup_tau_s.max(1.0).sqrt(),
+        warmup: WarmupDrift {
+            tau_s: warm.warmup_tau_s.max(1.0),
+            gyro_bias: g.temp_bias * warm.warmup_c,
+            accel_bias: a.temp_bias * warm.warmup_c,
+            gyro_scale: g.temp_scale * warm.warmup_c,
+        },
         gnss_corr_sigma_m: [GNSS_CORR_SHARE.sqrt() * 1.5, GNSS_CORR_SHARE.sqrt() * 3.0],
         gnss_corr_tau_s: 60.0,
     }
@@ -376,7 +381,12 @@ fn navigate_t<T: Real>(
     };
     let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
     let t0 = rec.imu[0].t_s;
-    let mut cfg = aided_config(m.axis, lever_b, opt, m.imu_rate_hz);
+    let read_sigma = if rec.table.is_empty() {
+        0.0
+    } else {
+        track.read_sigma_rad()
+    };
+    let mut cfg = aided_config(m.axis, lever_b, opt, m.imu_rate_hz, read_sigma);
     cfg.initial = initial;
     cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&fixes);
     let mut an = AidedNav::<T>::new(
@@ -509,6 +519,7 @@ fn navigate_t<T: Real>(
     run.rejected = an.kf.rejected;
     run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
     run.zupts = an.counts.zupts;
+    run.zarus = an.counts.zarus;
     run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
     run.outages_cut = opt.outages.clone();
@@ -517,20 +528,25 @@ fn navigate_t<T: Real>(
 }
 
 /// The aided navigator's settings for a sensor profile, table axis and
-/// antenna lever arm (`b`, m).
+/// antenna lever arm (`b`, m), the IMU sampled at `rate_hz`, the encoder's
+/// read 1-sigma `encoder_read_sigma_rad` (rad; 0 without a table).
 pub fn aided_config(
     axis: Axis,
     antenna_b_m: [f64; 3],
     opt: &AidedOptions,
     rate_hz: f64,
+    encoder_read_sigma_rad: f64,
 ) -> AidedConfig {
+    let mut zupt_noise = zupt_noise(&opt.profile, rate_hz);
+    zupt_noise.sigma_table_rate_radps =
+        core_nav::aided::table_rate_sigma_radps(encoder_read_sigma_rad, rate_hz);
     AidedConfig {
         eskf: filter_config(&opt.profile, opt.gate_sigma),
         initial: INITIAL_SIGMA,
         axis,
         antenna_b_m,
         zupt: opt.zupt,
-        zupt_noise: zupt_noise(&opt.profile, rate_hz),
+        zupt_noise,
     }
 }
 
@@ -547,6 +563,7 @@ pub fn zupt_noise(p: &ImuSpec, rate_hz: f64) -> core_nav::aided::ZuptNoise {
     core_nav::aided::ZuptNoise {
         sigma_f_mps2: per(p.accel.white, p.accel.lsb, 1e-4 * hal_sim::sensor::G0),
         sigma_w_radps: per(p.gyro.white, p.gyro.lsb, 1e-3f64.to_radians()),
+        sigma_table_rate_radps: 0.0,
     }
 }
 

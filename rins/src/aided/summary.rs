@@ -30,6 +30,8 @@ pub struct AidedSummary {
     pub nees_attitude_per_dof: Option<f64>,
     /// Zero-velocity updates, gate rejections, refusals, mechanization faults.
     pub zupts: u32,
+    /// Zero-rotation updates (one per still window).
+    pub zarus: u32,
     /// See `zupts`.
     pub rejected: u32,
     /// See `zupts`.
@@ -146,6 +148,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     };
     let mut s = AidedSummary {
         zupts: run.zupts,
+        zarus: run.zarus,
         reinits: run.reinits,
         rejected: run.rejected,
         refused: run.refused,
@@ -289,8 +292,8 @@ impl AidedSummary {
             );
         }
         o += &format!(
-            "zero-velocity updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
-            self.zupts, self.rejected, self.refused, self.faults, self.reinits
+            "zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
+            self.zupts, self.zarus, self.rejected, self.refused, self.faults, self.reinits
         );
         if !self.zupt_spans.is_empty() {
             let shown: Vec<String> = self
