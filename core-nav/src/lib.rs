@@ -69,6 +69,7 @@ pub mod multipos;
 pub mod real;
 pub mod scheme;
 pub mod site;
+pub mod stats;
 pub mod strapdown;
 pub mod table;
 

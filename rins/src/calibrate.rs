@@ -242,7 +242,7 @@ pub fn calibrate(
         Method::Paper | Method::Earth => {
             let (Some(s), Some(r)) = (first_static, rotating.first()) else {
                 bail!(
-                    "{method:?} calibration needs a static and a rotating phase; found {}",
+                    "{method:?} calibration needs a still phase and a rotating one (5 s or more each) between --from-s and --to-s; found {}. A simulated run has a still phase only when asked: rins simulate --static-s 60; or give --method reciprocating or multirate for a run that turns both ways or at several rates",
                     describe(segs)
                 );
             };

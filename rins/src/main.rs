@@ -1,7 +1,7 @@
 //! `rins`: the host command line of the rotary MEMS INS.
 
 use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 
 mod cmd;
 
@@ -45,6 +45,13 @@ enum Tool {
     Demo(cmd::demo::Args),
 }
 
+/// Every command and subcommand takes negative numbers as values (a
+/// southern latitude, a negative pitch or rate): `--lat-deg -33.9`, not an
+/// unknown flag `-3`.
+fn signed(cmd: clap::Command) -> clap::Command {
+    cmd.allow_negative_numbers(true).mut_subcommands(signed)
+}
+
 fn main() -> Result<()> {
     // Like any Unix filter: a closed pipe (`rins allan ... | head`) ends the
     // process quietly instead of a failed print.
@@ -53,7 +60,11 @@ fn main() -> Result<()> {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
-    match Cli::parse().command {
+    let cli = match Cli::from_arg_matches(&signed(Cli::command()).get_matches()) {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
+    match cli.command {
         Tool::Simulate(a) => cmd::simulate::run(&a),
         Tool::Calibrate(a) => cmd::calibrate::run(&a),
         Tool::Navigate(a) => cmd::navigate::run(&a),

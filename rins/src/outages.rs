@@ -7,6 +7,7 @@
 use crate::aided::{self, AidedOptions};
 use anyhow::{anyhow, Result};
 use core_nav::scheme::Scheme;
+use core_nav::stats::{mean, median};
 use core_nav::table::Axis;
 use hal_sim::drive::{DriveKind, GnssSpec};
 use hal_sim::imu::ImuSpec;
@@ -181,10 +182,6 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
     })
 }
 
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len().max(1) as f64
-}
-
 impl OutageStudy {
     /// Mean end error per (sensor, rotary, outage index), m.
     pub fn mean_error(&self, imu: &str, rotary: bool, k: usize) -> f64 {
@@ -240,8 +237,7 @@ impl OutageStudy {
                         .filter_map(|r| r.end_error_m.get(k).copied())
                         .filter(|x| x.is_finite())
                         .collect();
-                    v.sort_by(f64::total_cmp);
-                    let med = v.get(v.len() / 2).copied().unwrap_or(f64::NAN);
+                    let med = median(&mut v);
                     o += &format!(" {:.1} ({med:.1}) |", mean(&v));
                 }
                 let nees: Vec<f64> = rs

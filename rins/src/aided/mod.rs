@@ -214,9 +214,9 @@ fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
 /// own (hal-sim's receiver, 1.5 m and 3 m, gives the 1.06 m and 2.12 m
 /// the board's tuning holds).
 pub fn gnss_corr_sigma(fixes: &[GnssRow]) -> [f64; 2] {
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v.get(v.len() / 2).copied().unwrap_or(1.0)
+    let median = |mut v: Vec<f64>| match core_nav::stats::median(&mut v) {
+        m if m.is_finite() => m,
+        _ => 1.0,
     };
     let h = median(fixes.iter().map(|f| f.sigma_h_m).collect());
     let v = median(fixes.iter().map(|f| f.sigma_v_m).collect());

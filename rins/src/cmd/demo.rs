@@ -19,8 +19,31 @@ pub struct Args {
     pub seed: u64,
 }
 
+/// What `--out` holds before the demo writes: nothing, a previous demo's
+/// output (replaced, and said so), or something else (refused).
+fn check_out(out: &std::path::Path) -> Result<()> {
+    let Ok(mut entries) = std::fs::read_dir(out) else {
+        return Ok(());
+    };
+    if entries.next().is_none() {
+        return Ok(());
+    }
+    if out.join("trajectory_rotary.csv").exists() && out.join("recording_rotary").exists() {
+        println!(
+            "  replacing the previous demo's output in {}",
+            out.display()
+        );
+        return Ok(());
+    }
+    anyhow::bail!(
+        "{} exists and is not a previous demo's output: give another --out",
+        out.display()
+    )
+}
+
 /// Runs `rins demo`.
 pub fn run(a: &Args) -> Result<()> {
+    check_out(&a.out)?;
     println!("rins demo: the board's IMU (TDK ICM-42688-P) on a z table at 30.53 N");
     println!(
         "  power-up: {} s still + {} s at {} deg/s (calibration), then {} min of navigation",

@@ -88,6 +88,39 @@ pub struct Args {
     pub estimate_time_offset: bool,
 }
 
+/// `--start-s`, `--end-s` and the outages inside the recording's span,
+/// the end after the start.
+fn check_span(a: &Args, rec: &recording::Recording) -> Result<()> {
+    let (Some(first), Some(last)) = (rec.imu.first(), rec.imu.last()) else {
+        bail!("{}: imu.csv has no samples", a.rec.display());
+    };
+    let (t0, t1) = (first.t_s, last.t_s);
+    if a.start_s >= t1 {
+        bail!(
+            "--start-s {} is at or after the recording's last sample ({t1} s)",
+            a.start_s
+        );
+    }
+    if let Some(end) = a.end_s {
+        if end <= a.start_s.max(t0) {
+            bail!(
+                "--end-s {end} is not after the start ({} s: --start-s or the first sample)",
+                a.start_s.max(t0)
+            );
+        }
+    }
+    for o in &a.gnss_outages {
+        let (start, len) = hal_sim::drive::parse_outage(o).map_err(|e| anyhow::anyhow!(e))?;
+        if start + len > t1 {
+            bail!(
+                "--gnss-outage {o} ends at {} s, past the recording's last sample ({t1} s)",
+                start + len
+            );
+        }
+    }
+    Ok(())
+}
+
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
     let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
     let v: serde_json::Value =
@@ -100,8 +133,15 @@ pub fn run(a: &Args) -> Result<()> {
     let rec = read_recording(&a.rec)?;
     rec.require_accel("rins navigate")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
+    check_span(a, &rec)?;
     if a.gnss {
         return run_aided(a, &rec);
+    }
+    if rec.moving.is_some() {
+        bail!(
+            "{} is a moving-base recording (meta.toml [base] moving = true): errors against a static base mean nothing there; navigate it with --gnss",
+            a.rec.display()
+        );
     }
     let calibration = a
         .calibration

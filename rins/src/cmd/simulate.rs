@@ -20,7 +20,13 @@ pub struct Args {
     pub ideal: bool,
     /// The sensor: a shipped profile's name (ideal, mtig, nav440,
     /// adis16405, icm42688, icm42605) or a sensor file (`rins-sensor/1`).
-    #[arg(long = "sensor", alias = "imu", default_value = "icm42688")]
+    /// Not with --ideal (which is a sensor of its own).
+    #[arg(
+        long = "sensor",
+        alias = "imu",
+        default_value = "icm42688",
+        conflicts_with = "ideal"
+    )]
     pub sensor: String,
     /// Rotation scheme after the static phase.
     #[arg(long, value_enum, default_value = "continuous")]
@@ -138,8 +144,15 @@ impl Args {
                 .ok_or_else(|| anyhow!("--drive {kind:?}: expected city or highway"))?;
             let mut gnss = hal_sim::drive::GnssSpec::default();
             for o in &self.gnss_outages {
-                gnss.outages
-                    .push(hal_sim::drive::parse_outage(o).map_err(|e| anyhow!(e))?);
+                let (start, len) = hal_sim::drive::parse_outage(o).map_err(|e| anyhow!(e))?;
+                if start + len > self.duration_s {
+                    return Err(anyhow!(
+                        "--gnss-outage {o} ends at {} s, past the run's end: --duration-s is {} s",
+                        start + len,
+                        self.duration_s
+                    ));
+                }
+                gnss.outages.push((start, len));
             }
             if self.site.pitch_deg != 0.0 || self.site.roll_deg != 0.0 {
                 return Err(anyhow!(
