@@ -13,8 +13,8 @@
 //!
 //! The Feather's pins labelled TX and RX are USART3's (PB10 / PB11, AF7),
 //! by its pinout. PA8 is not on the Feather's header: wire the motor
-//! driver's PWM to its pad, or move the PWM to TIM8 CH1 on PC6 (README,
-//! "Bring-up").
+//! driver's PWM to its pad, or move the PWM to TIM8 CH1 on PC6 (the
+//! book's Hardware chapter, `docs/src/hardware.md`).
 
 #[path = "hw_common.rs"]
 mod common;

@@ -98,7 +98,7 @@ pub struct Stats {
     /// The link task's worst case, cycles.
     pub link_worst: AtomicU32,
     /// The UART interrupt's worst case, cycles (what it holds the tasks
-    /// off; what holds it off is in the README's margin analysis).
+    /// off; what holds it off is in the book's Firmware chapter, the link's margin).
     pub uart_worst: AtomicU32,
     /// Samples dropped (data-ready late).
     pub dropped: AtomicU32,

@@ -2,8 +2,8 @@
 //! units datasheets and Allan plots give, its mounting on the base and the
 //! antenna's lever arm. The shipped profiles are such files
 //! (`sensors/*.toml`, compiled in); a user's own file is read by path.
-//! The format is documented in the book's formats chapter and
-//! `sensors/README.md`; this module is its one reader and writer.
+//! The format is documented in the book's Formats chapter
+//! (`docs/src/formats.md`); this module is its one reader and writer.
 //!
 //! Conversions to the SI [`ImuSpec`]: deg -> rad, g -> m/s^2 with
 //! [`G0`], an Allan floor -> the Gauss-Markov sigma whose Allan peak it

@@ -5,7 +5,7 @@
 //! serde + postcard is the ecosystem's way to the same end; this codec was
 //! kept because it is fixed-width (a field's offset is the same in every
 //! frame, which a logic analyser or a C host reads without a library) and
-//! because its flash was measured against postcard's (README, "Flash").
+//! because its flash was measured against postcard's (the book's Firmware chapter).
 
 use crate::frame::FrameError;
 

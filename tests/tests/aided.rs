@@ -121,7 +121,7 @@ fn the_rotary_table_beats_the_still_one_in_the_issues_drive() {
     // The issue's run: a 900 s city drive, outages 300:60 and 600:120, the
     // table at 30 deg/s or still, NAV440 and ICM-42688-P, six seeds each:
     // the mean horizontal error at each outage's end (`rins outages` runs
-    // 20 drives with four outage lengths for the README). The rotation
+    // 20 drives with four outage lengths for the book). The rotation
     // turns the gyro biases across the table axis into sinusoids in n; the
     // still table's biases tilt and turn the solution for the whole
     // outage.

@@ -54,7 +54,7 @@ fn real_noise_nulls_name_nothing() {
     // Confidence that means what it says: a null's strongest evidence for
     // any effect falls below 0.1 in at most 10 % of nulls. Of 12, five or
     // more below it has a chance of 0.4 % (binomial) if the confidences
-    // are honest; the study checks it on hundreds (README).
+    // are honest; the study checks it on hundreds (the book, Diagnose).
     let below = strongest.iter().filter(|p| **p < 0.1).count();
     println!("nulls' strongest adjusted p: {strongest:.3?}");
     assert!(below <= 4, "{below} of 12 nulls below 0.1: {strongest:?}");

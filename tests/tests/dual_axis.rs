@@ -1,7 +1,7 @@
 //! Dual-axis 8- and 16-position sequences on a simulated tri-axial table:
 //! exact with an ideal IMU (kinematics, the two-column calibration and the
 //! gimbal attitude agree), and usable on a NAV440 once both gimbal axes are
-//! calibrated (measured against continuous rotation in the README).
+//! calibrated (measured against continuous rotation in the book).
 
 use hal_sim::imu::ImuSpec;
 use rins::reproduce::{mean, run_one, Plan};

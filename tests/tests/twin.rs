@@ -133,7 +133,7 @@ fn check_all(g: &Grade) {
             c.nominal
         );
         // A warm-up without a temperature column on real drift is the
-        // drift's look-alike (README, "what diagnose cannot separate"): the
+        // drift's look-alike (the book's Diagnose chapter, "what diagnose cannot separate"): the
         // twin must still hold, naming it is not asked for.
         let must_name = !(g.real.is_some() && id == EffectId::TemperatureBias);
         if !((c.named || !must_name) && c.full <= GOOD_RATIO && c.nominal > GOOD_RATIO) {
