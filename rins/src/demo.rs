@@ -99,6 +99,7 @@ pub fn run(rate_dps: f64, seed: u64, progress: &mut dyn FnMut(f64)) -> Result<De
             calibration: Some(c),
             f32: true,
             hold_height: false,
+            base: None,
             gimbals: None,
         };
         nav::navigate(rec, &o, &mut |_| {})

@@ -7,6 +7,7 @@
 //! wires these to the command line.
 
 pub mod aided;
+pub mod align;
 pub mod allan;
 pub mod calibrate;
 pub mod demo;

@@ -25,6 +25,9 @@ pub struct NavOptions {
     pub f32: bool,
     /// Hold the height (long static runs).
     pub hold_height: bool,
+    /// The base's attitude at the start (roll, pitch, heading, rad): an
+    /// alignment's ([`crate::align`]); `None`: `meta.toml`'s.
+    pub base: Option<Euler<f64>>,
     /// A tri-axial table's gimbal angles (inner about sensor z, outer about
     /// base x), rad, one per IMU sample: replaces the single-axis encoder
     /// angle for the initial and the output attitude (`c_s_b = Rx(outer)
@@ -140,7 +143,9 @@ fn navigate_t<T: Real>(
         }
     };
     let origin = GeoPoint::from_deg(m.latitude_deg, 0.0, m.height_m);
-    let base = Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg);
+    let base = opt
+        .base
+        .unwrap_or_else(|| Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg));
     let s0 = sample(first);
     let theta0 = angle_at(s0.t_us, &mut enc)?;
     let gimbal = |k: usize| {

@@ -33,6 +33,11 @@ pub struct Args {
     /// Hold the height (long static runs: the vertical channel diverges).
     #[arg(long)]
     pub hold_height: bool,
+    /// Start from the base attitude in meta.toml instead of aligning on
+    /// the still start (levelling; gyrocompassing where the gyros resolve
+    /// the earth's rate).
+    #[arg(long, conflicts_with = "gnss")]
+    pub attitude_from_meta: bool,
     /// Also write the summary as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -48,7 +53,8 @@ pub struct Args {
     /// the one named by the recording's `[imu] model`).
     /// A shipped profile's name or a sensor file (`rins-sensor/1`: its
     /// noise, mounting and antenna lever arm).
-    #[arg(long = "sensor", alias = "imu-profile", requires = "gnss")]
+    /// Without --gnss: the alignment's sigmas come from it.
+    #[arg(long = "sensor", alias = "imu-profile")]
     pub sensor: Option<String>,
     /// Cut a GNSS outage into the run, START:LENGTH in s (repeatable): the
     /// fixes inside are withheld from the filter and kept as the
@@ -121,6 +127,63 @@ fn check_span(a: &Args, rec: &recording::Recording) -> Result<()> {
     Ok(())
 }
 
+/// The still start's alignment, with the sensor profile for its sigmas
+/// when one is known (`--sensor`, or the recording's `[imu] model`);
+/// `None`, and the reason said, when the start cannot be aligned on
+/// (navigation then starts from meta.toml's attitude, as the trajectory
+/// format says).
+fn align_or_say(rec: &recording::Recording, a: &Args) -> Option<rins::align::StaticAlignment> {
+    let profile = rins::aided::profile(rec, a.sensor.as_deref()).ok();
+    match rins::align::align(rec, a.start_s, profile.as_ref()) {
+        Ok(al) => Some(al),
+        Err(e) => {
+            println!("no alignment ({e}): start attitude from meta.toml");
+            None
+        }
+    }
+}
+
+/// The alignment in words, beside meta.toml's attitude.
+fn alignment_text(al: &rins::align::StaticAlignment, meta_rph: [f64; 3]) -> String {
+    let sig = |s: f64| {
+        if s.is_finite() {
+            format!("+- {s:.3}")
+        } else {
+            "+- unknown (no sensor profile: --sensor)".into()
+        }
+    };
+    let [r, p, h] = al.euler_deg;
+    let [sr, sp, sh] = al.sigma_deg;
+    let mut o = format!(
+        "alignment over {:.0}-{:.0} s ({}): roll {r:.3} {} deg, pitch {p:.3} {} deg, heading {h:.2} {}\n",
+        al.window_s[0],
+        al.window_s[1],
+        if al.turns >= 1.0 {
+            format!("{:.0} whole table turns", al.turns)
+        } else {
+            "the table still".into()
+        },
+        sig(sr),
+        sig(sp),
+        if al.gyrocompassed {
+            format!("{} deg (gyrocompass)", sig(sh))
+        } else {
+            "deg (meta.toml's)".into()
+        },
+    );
+    if let Some(n) = &al.heading_note {
+        o += &format!("  {n}\n");
+    }
+    let d = |a: f64, b: f64| (a - b + 540.0).rem_euclid(360.0) - 180.0;
+    o += &format!(
+        "  against meta.toml's attitude: roll {:+.3}, pitch {:+.3}, heading {:+.2} deg\n",
+        d(r, meta_rph[0]),
+        d(p, meta_rph[1]),
+        d(h, meta_rph[2])
+    );
+    o
+}
+
 fn load_calibration(p: &Path) -> Result<GyroCalibration> {
     let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
     let v: serde_json::Value =
@@ -157,12 +220,24 @@ pub fn run(a: &Args) -> Result<()> {
             );
         }
     }
+    let aligned = match a.attitude_from_meta {
+        true => None,
+        false => align_or_say(&rec, a),
+    };
+    let m = &rec.meta;
+    let meta_rph = [m.roll_deg, m.pitch_deg, m.heading_deg];
+    let start_rph = aligned.as_ref().map_or(meta_rph, |al| al.euler_deg);
     let opt = NavOptions {
         start_s: a.start_s,
         end_s: a.end_s,
         calibration,
         f32: a.f32,
         hold_height: a.hold_height,
+        base: Some(core_nav::attitude::Euler::from_deg(
+            start_rph[0],
+            start_rph[1],
+            start_rph[2],
+        )),
         gimbals: None,
     };
     let pb = progress_bar("navigate");
@@ -170,12 +245,10 @@ pub fn run(a: &Args) -> Result<()> {
     pb.finish_and_clear();
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     write_file(&a.out.join("trajectory.csv"), &nav::trajectory_csv(&rows))?;
-    let m = &rec.meta;
-    let base = [m.roll_deg, m.pitch_deg, m.heading_deg];
-    for chart in report::nav_charts(&[("run", &rows)], base) {
+    for chart in report::nav_charts(&[("run", &rows)], start_rph) {
         chart.write(&a.out)?;
     }
-    let e = nav::static_errors(&rows, base);
+    let e = nav::static_errors(&rows, start_rph);
     let faults = rows.last().map_or(0, |r| r.faults);
     println!(
         "{} samples navigated ({} refused) -> {}",
@@ -183,14 +256,21 @@ pub fn run(a: &Args) -> Result<()> {
         faults,
         a.out.display()
     );
-    println!("errors against a static base (the recording's attitude, the start point):");
+    match &aligned {
+        Some(al) => print!("{}", alignment_text(al, meta_rph)),
+        None if a.attitude_from_meta => {
+            println!("start attitude: meta.toml's (--attitude-from-meta)")
+        }
+        None => {}
+    }
+    println!("errors against the still base: the start point, and the start attitude for the attitude's drift:");
     println!("  {}", nav::summary(&e));
     println!("  final horizontal position error {:.2} m", e.h_pos_end_m);
     if let Some(p) = &a.json {
         write_file(
             p,
             &serde_json::to_string_pretty(
-                &serde_json::json!({"errors": e, "refused_steps": faults}),
+                &serde_json::json!({"errors": e, "refused_steps": faults, "alignment": aligned}),
             )?,
         )?;
     }
