@@ -11,6 +11,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// The recording directory.
     pub rec: PathBuf,
+    /// Use readings the sensor cannot have given (beyond its full scale,
+    /// lone spikes, stuck runs) as they are, instead of excluding them.
+    #[arg(long)]
+    pub keep_implausible: bool,
     /// Write the calibration (rins-calibration/1) here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -30,7 +34,7 @@ pub struct Args {
 
 /// Runs `rins calibrate`.
 pub fn run(a: &Args) -> Result<()> {
-    let rec = read_recording(&a.rec)?;
+    let rec = super::plausible(read_recording(&a.rec)?, None, a.keep_implausible);
     rec.require_accel("rins calibrate")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let r = calibrate::calibrate(

@@ -11,6 +11,10 @@ use std::path::PathBuf;
 pub struct Args {
     /// The recording directory.
     pub rec: PathBuf,
+    /// Use readings the sensor cannot have given (beyond its full scale,
+    /// lone spikes, stuck runs) as they are, instead of excluding them.
+    #[arg(long)]
+    pub keep_implausible: bool,
     /// The nominal model (TOML: `earth_rate = true|false`, `[known.<effect
     /// id>]` tables of parameters the model already has); default: the
     /// spec's (gravity, earth rate, table motion, bias, scale,
@@ -53,7 +57,11 @@ pub struct Args {
 
 /// Runs `rins diagnose`.
 pub fn run(a: &Args) -> Result<()> {
-    let rec = read_recording(&a.rec)?;
+    let rec = super::plausible(
+        read_recording(&a.rec)?,
+        a.sensor.as_deref(),
+        a.keep_implausible,
+    );
     let mut opts = rins::diagnose::Options::default();
     if let Some(m) = &a.model {
         let text =

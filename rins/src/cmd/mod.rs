@@ -89,6 +89,42 @@ pub fn read_recording(p: &Path) -> Result<Recording> {
     Recording::read(p).map_err(|e| anyhow!("{e}"))
 }
 
+/// The readings of `rec` its sensor cannot have given
+/// ([`recording::plausible`]: beyond the full scale of `sensor`, or of
+/// the profile the recording's `[imu] model` names; spikes; stuck runs),
+/// said with their time and row, and excluded (each replaced by its
+/// channel's last plausible reading) unless `keep`.
+pub fn plausible(rec: Recording, sensor: Option<&str>, keep: bool) -> Recording {
+    let profile = rins::aided::profile(&rec, sensor).ok();
+    let fs = profile.map(|p| (p.gyro.full_scale, p.accel.full_scale));
+    let bad = recording::plausible::check(&rec, fs);
+    if bad.is_empty() {
+        return rec;
+    }
+    println!(
+        "{} implausible readings in imu.csv{}:",
+        bad.len(),
+        if fs.is_some() {
+            ""
+        } else {
+            " (full scale not checked: no sensor profile)"
+        }
+    );
+    for b in bad.iter().take(3) {
+        println!("  {b}");
+    }
+    if bad.len() > 3 {
+        println!("  ... and {} more", bad.len() - 3);
+    }
+    if keep {
+        println!("  used as they are (--keep-implausible)");
+        return rec;
+    }
+    let (out, n) = recording::plausible::excluded(&rec, &bad);
+    println!("  excluded: {n} readings replaced by their channel's last plausible one (--keep-implausible uses them)");
+    out
+}
+
 /// Writes text to a file, naming it on failure.
 pub fn write_file(p: &Path, text: &str) -> Result<()> {
     if let Some(d) = p.parent().filter(|d| !d.as_os_str().is_empty()) {

@@ -15,6 +15,10 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// The recording directory.
     pub rec: PathBuf,
+    /// Use readings the sensor cannot have given (beyond its full scale,
+    /// lone spikes, stuck runs) as they are, instead of excluding them.
+    #[arg(long)]
+    pub keep_implausible: bool,
     /// Gyro calibration (rins-calibration/1, from `rins calibrate --json`).
     #[arg(long)]
     pub calibration: Option<PathBuf>,
@@ -193,7 +197,11 @@ fn load_calibration(p: &Path) -> Result<GyroCalibration> {
 
 /// Runs `rins navigate`.
 pub fn run(a: &Args) -> Result<()> {
-    let rec = read_recording(&a.rec)?;
+    let rec = super::plausible(
+        read_recording(&a.rec)?,
+        a.sensor.as_deref(),
+        a.keep_implausible,
+    );
     rec.require_accel("rins navigate")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     check_span(a, &rec)?;

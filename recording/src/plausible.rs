@@ -1,0 +1,277 @@
+//! Samples a sensor cannot have given: beyond its full scale, a spike no
+//! neighbour shares, a channel stuck on one value. Found here, once, for
+//! every tool that reads samples (`navigate`, `calibrate`, `diagnose`),
+//! each named by its time and data row; the tools exclude them (counted
+//! and said) or take them when told to.
+//!
+//! - **Full scale**: `|x|` above the sensor's range (a datasheet figure
+//!   the caller gives; a reading at the rail is the rail, a reading beyond
+//!   it is not a reading).
+//! - **Spike**: the sample's distance from the mean of its two neighbours
+//!   over [`SPIKE_SIGMAS`] robust sigmas of that same second difference,
+//!   both over the whole channel and over the [`SPIKE_LOCAL`] samples
+//!   each side (its median absolute deviation / 0.6745: a hand's jolt
+//!   while walking is large against a still channel's noise, not against
+//!   its own stride's), and its neighbours within that of each other (a
+//!   step, a turn starting, is not a spike).
+//! - **Stuck**: a run of equal readings at least [`STUCK_SAMPLES`] long
+//!   and [`STUCK_OVER_P99`] times the channel's own 99th-percentile run,
+//!   on a channel whose readings otherwise change nearly every sample
+//!   (its median run under 3): a noisy sensor does not repeat itself for a
+//!   second. A coarse quantiser's channel sitting inside one step repeats
+//!   for long runs all along (the real MPU-6050 recording's 10 mg steps:
+//!   103 equal readings in a row), and a noise-free simulated one repeats
+//!   throughout; neither is flagged.
+
+use crate::{ImuRow, Recording};
+
+/// Robust sigmas of the second difference beyond which a lone sample is a
+/// spike.
+pub const SPIKE_SIGMAS: f64 = 30.0;
+/// Samples each side whose scatter a spike must also stand out of.
+pub const SPIKE_LOCAL: usize = 50;
+/// Equal readings in a row that make a stuck channel, at least.
+pub const STUCK_SAMPLES: usize = 100;
+/// A stuck run is this many times the channel's 99th-percentile run.
+pub const STUCK_OVER_P99: f64 = 10.0;
+
+/// The channels' names as in `imu.csv`.
+pub const CHANNELS: [&str; 6] = [
+    "gyro_x_radps",
+    "gyro_y_radps",
+    "gyro_z_radps",
+    "accel_x_mps2",
+    "accel_y_mps2",
+    "accel_z_mps2",
+];
+
+/// What is wrong with a sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Kind {
+    /// Beyond the sensor's full scale (the scale, in the channel's unit).
+    BeyondFullScale(f64),
+    /// A lone spike (its robust sigmas).
+    Spike(f64),
+    /// One of a run of equal readings (the run's length).
+    Stuck(usize),
+}
+
+/// One implausible reading.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Implausible {
+    /// Index into `imu.csv`'s data rows (0-based).
+    pub row: usize,
+    /// Its time, s.
+    pub t_s: f64,
+    /// The channel (index into [`CHANNELS`]).
+    pub channel: usize,
+    /// The reading.
+    pub value: f64,
+    /// Why.
+    pub kind: Kind,
+}
+
+impl std::fmt::Display for Implausible {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let name = CHANNELS.get(self.channel).copied().unwrap_or("?");
+        write!(
+            f,
+            "imu.csv data row {} (t = {} s): {name} = {}, ",
+            self.row + 1,
+            self.t_s,
+            self.value
+        )?;
+        match self.kind {
+            Kind::BeyondFullScale(fs) => write!(f, "beyond the sensor's full scale {fs:.4}"),
+            Kind::Spike(s) => write!(f, "a spike {s:.0} robust sigmas off its neighbours"),
+            Kind::Stuck(n) => write!(f, "stuck: one of {n} equal readings in a row"),
+        }
+    }
+}
+
+fn value(r: &ImuRow, ch: usize) -> f64 {
+    match ch {
+        0..=2 => r.gyro_radps[ch],
+        _ => r.accel_mps2[ch - 3],
+    }
+}
+
+/// The implausible readings of `rec`, in row order; `full_scale` is the
+/// gyros' (rad/s) and the accelerometers' (m/s^2) range when known. A
+/// gyro-only recording's missing accelerometer channels are skipped.
+pub fn check(rec: &Recording, full_scale: Option<(f64, f64)>) -> Vec<Implausible> {
+    let mut out = vec![];
+    for ch in 0..6 {
+        let x: Vec<f64> = rec.imu.iter().map(|r| value(r, ch)).collect();
+        if x.iter().all(|v| v.is_nan()) {
+            continue;
+        }
+        let fs = full_scale.map(|(g, a)| if ch < 3 { g } else { a });
+        let mut add = |row: usize, kind: Kind| {
+            out.push(Implausible {
+                row,
+                t_s: rec.imu[row].t_s,
+                channel: ch,
+                value: x[row],
+                kind,
+            })
+        };
+        if let Some(fs) = fs.filter(|f| *f > 0.0) {
+            for (k, v) in x.iter().enumerate() {
+                if v.abs() > fs * (1.0 + 1e-6) {
+                    add(k, Kind::BeyondFullScale(fs));
+                }
+            }
+        }
+        for (k, s) in spikes(&x) {
+            add(k, Kind::Spike(s));
+        }
+        for (k, n) in stuck(&x) {
+            add(k, Kind::Stuck(n));
+        }
+    }
+    out.sort_by(|a, b| a.row.cmp(&b.row).then(a.channel.cmp(&b.channel)));
+    out.dedup_by(|a, b| a.row == b.row && a.channel == b.channel);
+    out
+}
+
+/// Lone spikes: (row, robust sigmas).
+fn spikes(x: &[f64]) -> Vec<(usize, f64)> {
+    if x.len() < 5 {
+        return vec![];
+    }
+    let d2: Vec<f64> = x.windows(3).map(|w| w[1] - 0.5 * (w[0] + w[2])).collect();
+    let robust = |d: &[f64]| {
+        let mut abs: Vec<f64> = d
+            .iter()
+            .map(|d| d.abs())
+            .filter(|d| d.is_finite())
+            .collect();
+        core_nav::stats::median(&mut abs) / 0.6745
+    };
+    let sigma = robust(&d2);
+    if sigma.is_nan() || sigma <= 0.0 {
+        return vec![];
+    }
+    d2.iter()
+        .enumerate()
+        .filter_map(|(i, d)| {
+            let s = d.abs() / sigma;
+            let (a, b) = (x[i], x[i + 2]);
+            if !(s > SPIKE_SIGMAS && (a - b).abs() < SPIKE_SIGMAS * sigma) {
+                return None;
+            }
+            let near = |lo: usize, hi: usize| d2.get(lo..hi).unwrap_or(&[]);
+            let local: Vec<f64> = near(i.saturating_sub(SPIKE_LOCAL), i)
+                .iter()
+                .chain(near(i + 1, (i + 1 + SPIKE_LOCAL).min(d2.len())))
+                .copied()
+                .collect();
+            let ls = robust(&local);
+            (ls.is_nan() || ls <= 0.0 || d.abs() > SPIKE_SIGMAS * ls).then_some((i + 1, s))
+        })
+        .collect()
+}
+
+/// Rows in runs of [`STUCK_SAMPLES`] or more equal readings, on a channel
+/// whose median run is under 3: (row, run length).
+fn stuck(x: &[f64]) -> Vec<(usize, usize)> {
+    let mut runs: Vec<(usize, usize)> = vec![];
+    let mut start = 0;
+    for k in 1..=x.len() {
+        if k == x.len() || x[k] != x[start] {
+            runs.push((start, k - start));
+            start = k;
+        }
+    }
+    let mut lens: Vec<f64> = runs.iter().map(|r| r.1 as f64).collect();
+    if core_nav::stats::median(&mut lens) >= 3.0 {
+        return vec![];
+    }
+    let p99 = core_nav::stats::percentile(&mut lens, 99.0);
+    let least = (STUCK_SAMPLES as f64).max(STUCK_OVER_P99 * p99);
+    runs.iter()
+        .filter(|(_, n)| *n as f64 >= least)
+        .flat_map(|&(s, n)| (s..s + n).map(move |k| (k, n)))
+        .collect()
+}
+
+/// `rec` with each implausible reading replaced by the channel's last
+/// plausible one before it (the sample kept, so time stays even), and how
+/// many readings were replaced.
+pub fn excluded(rec: &Recording, bad: &[Implausible]) -> (Recording, usize) {
+    let mut out = rec.clone();
+    for b in bad {
+        let prev = (0..b.row)
+            .rev()
+            .find(|k| !bad.iter().any(|o| o.row == *k && o.channel == b.channel));
+        let v = prev.map_or(f64::NAN, |k| value(&rec.imu[k], b.channel));
+        if let Some(r) = out.imu.get_mut(b.row) {
+            match b.channel {
+                0..=2 => r.gyro_radps[b.channel] = v,
+                c => r.accel_mps2[c - 3] = v,
+            }
+        }
+    }
+    (out, bad.len())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec_with(gz: impl Fn(usize) -> f64, n: usize) -> Recording {
+        let mut r = Recording::default();
+        for k in 0..n {
+            // A noisy channel: a fixed pseudo-random walk of small steps.
+            let noise = ((k * 7919) % 101) as f64 * 1e-4;
+            r.imu.push(ImuRow {
+                t_s: k as f64 * 0.01,
+                gyro_radps: [noise, -noise, gz(k)],
+                accel_mps2: [noise, noise, -9.8 + noise],
+                temp_c: None,
+            });
+        }
+        r
+    }
+
+    #[test]
+    fn a_reading_beyond_full_scale_and_a_lone_spike_are_named() {
+        let noise = |k: usize| ((k * 7919) % 101) as f64 * 1e-4;
+        let r = rec_with(|k| if k == 500 { 50.0 } else { 0.5 + noise(k) }, 1000);
+        let bad = check(&r, Some((34.9, 156.9)));
+        assert!(bad
+            .iter()
+            .any(|b| b.row == 500 && b.channel == 2 && matches!(b.kind, Kind::BeyondFullScale(_))));
+        let bad = check(&r, None);
+        assert_eq!(bad.len(), 1, "{bad:?}");
+        assert!(matches!(bad[0].kind, Kind::Spike(_)));
+        assert!(bad[0].to_string().contains("data row 501"), "{}", bad[0]);
+        // A step (a turn starting) is not a spike.
+        let step = rec_with(|k| if k < 500 { noise(k) } else { 0.5 + noise(k) }, 1000);
+        assert!(check(&step, None).is_empty());
+        let (fixed, n) = excluded(&r, &check(&r, None));
+        assert_eq!(n, 1);
+        assert_eq!(fixed.imu[500].gyro_radps[2], r.imu[499].gyro_radps[2]);
+    }
+
+    #[test]
+    fn a_stuck_channel_is_found_and_a_noise_free_one_is_not() {
+        let noise = |k: usize| ((k * 7919) % 101) as f64 * 1e-4;
+        let r = rec_with(
+            |k| {
+                if (300..450).contains(&k) {
+                    0.25
+                } else {
+                    noise(k)
+                }
+            },
+            1000,
+        );
+        let bad = check(&r, None);
+        assert_eq!(bad.len(), 150, "{bad:?}");
+        assert!(bad.iter().all(|b| b.kind == Kind::Stuck(150)));
+        let ideal = rec_with(|_| 0.5, 1000);
+        assert!(check(&ideal, None).is_empty());
+    }
+}
