@@ -23,16 +23,82 @@ pub mod report;
 pub mod reproduce;
 pub mod ubx;
 
-/// A progress bar for a job measured in fractions (hidden when not a terminal).
-pub fn progress_bar(what: &str) -> indicatif::ProgressBar {
-    let pb = indicatif::ProgressBar::new(1000);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>12} [{bar:40}] {percent:>3}% {elapsed}")
+/// A job's progress, measured in thousandths: on a terminal a bar with
+/// the time spent and an estimate of the time left; elsewhere (a log, CI)
+/// a plain line at most every [`PROGRESS_LINE_S`] with the same figures,
+/// and one when it ends, if it took that long.
+pub struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    what: String,
+    start: std::time::Instant,
+    last_line: std::sync::Mutex<std::time::Instant>,
+}
+
+/// Seconds between progress lines when stderr is not a terminal.
+pub const PROGRESS_LINE_S: f64 = 10.0;
+
+impl Progress {
+    /// Progress at `pos` thousandths.
+    pub fn set_position(&self, pos: u64) {
+        match &self.bar {
+            Some(b) => b.set_position(pos),
+            None => {
+                let now = std::time::Instant::now();
+                let Ok(mut last) = self.last_line.lock() else {
+                    return;
+                };
+                if now.duration_since(*last).as_secs_f64() < PROGRESS_LINE_S {
+                    return;
+                }
+                *last = now;
+                let spent = now.duration_since(self.start).as_secs_f64();
+                let f = (pos as f64 / 1000.0).clamp(1e-6, 1.0);
+                eprintln!(
+                    "{}: {:.0} % after {spent:.0} s, about {:.0} s left",
+                    self.what,
+                    100.0 * f,
+                    spent * (1.0 - f) / f
+                );
+            }
+        }
+    }
+
+    /// The job is done: the bar goes; a log gets its time if it took long.
+    pub fn finish_and_clear(&self) {
+        match &self.bar {
+            Some(b) => b.finish_and_clear(),
+            None => {
+                let spent = self.start.elapsed().as_secs_f64();
+                if spent >= PROGRESS_LINE_S {
+                    eprintln!("{}: done in {spent:.0} s", self.what);
+                }
+            }
+        }
+    }
+}
+
+/// A [`Progress`] for the job `what`.
+pub fn progress_bar(what: &str) -> Progress {
+    use std::io::IsTerminal;
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let pb = indicatif::ProgressBar::new(1000);
+        pb.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{msg:>12} [{bar:40}] {percent:>3}% {elapsed}, about {eta} left",
+            )
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
             .progress_chars("=> "),
-    );
-    pb.set_message(what.to_string());
-    pb
+        );
+        pb.set_message(what.to_string());
+        pb
+    });
+    let start = std::time::Instant::now();
+    Progress {
+        bar,
+        what: what.to_string(),
+        start,
+        last_line: std::sync::Mutex::new(start),
+    }
 }
 
 pub use ::diagnose::{realnoise, study};
