@@ -16,28 +16,49 @@ fn eng(ch: usize) -> (f64, &'static str) {
     }
 }
 
-/// A parameter in engineering units where the name says what it is.
-fn eng_param(name: &str, v: f64) -> String {
+/// A parameter in engineering units where the name says what it is and
+/// a conversion says more than the SI value (`None`: the SI value is the
+/// one to read: seconds, a ratio). One unit per quantity, as in the
+/// book's units table: rates deg/h, angle random walk deg/sqrt(h),
+/// forces ug, angles deg and arcsec, lengths mm, times ms.
+fn eng_param(name: &str, v: f64) -> Option<String> {
     let deg = 180.0 / core::f64::consts::PI;
-    if name.ends_with("_rad") {
+    let ug = 1e6 / 9.806_65;
+    Some(if name.ends_with("_per_radps") {
+        // A rate-squared coefficient (1/(rad/s)): per deg/s.
+        format!("{:.4e} per deg/s", v / deg)
+    } else if name.ends_with("_per_mps2") && !name.ends_with("radps_per_mps2") {
+        // An accelerometer's squared term (1/(m/s^2)): ug per g^2.
+        format!("{:.3} ug/g^2", v * 9.806_65 * ug)
+    } else if name.ends_with("radps_per_mps2") {
+        format!("{:.4} deg/h per g", v * deg * 3600.0 * 9.806_65)
+    } else if name.ends_with("radps_per_degc") {
+        format!("{:.4} deg/h per degC", v * deg * 3600.0)
+    } else if name.ends_with("mps2_per_degc") {
+        format!("{:.2} ug per degC", v * ug)
+    } else if name.ends_with("_rad_per_sqrt_s") {
+        format!("{:.3} deg/sqrt(h)", v * deg * 60.0)
+    } else if name.ends_with("_mps_per_sqrt_s") {
+        format!("{:.2} ug/sqrt(Hz)", v * ug)
+    } else if name.ends_with("_rad") {
         format!("{:.4} deg ({:.1} arcsec)", v * deg, v * deg * 3600.0)
     } else if name.ends_with("_radps") {
         format!("{:.3} deg/h", v * deg * 3600.0)
+    } else if name.ends_with("_mps2") {
+        format!("{:.1} ug", v * ug)
     } else if name.ends_with("_m") {
         format!("{:.2} mm", v * 1e3)
     } else if name.ends_with("_s") && name.contains("time_offset") {
         format!("{:.3} ms", v * 1e3)
-    } else if name.ends_with("radps_per_mps2") {
-        format!("{:.4} deg/h per m/s^2", v * deg * 3600.0)
-    } else if name.ends_with("radps_per_degc") {
-        format!("{:.4} deg/h per degC", v * deg * 3600.0)
-    } else if name.ends_with("_rad_per_sqrt_s") {
-        format!("{:.3} deg/sqrt(h)", v * deg * 60.0)
-    } else if name.ends_with("_hz") {
-        format!("{v:.1} Hz")
     } else {
-        format!("{v:.4e}")
-    }
+        return None;
+    })
+}
+
+/// `   [the value in engineering units]`, or nothing when there is no
+/// conversion to show.
+fn bracket(name: &str, v: f64) -> String {
+    eng_param(name, v).map_or(String::new(), |e| format!("   [{e}]"))
 }
 
 /// The text report.
@@ -182,10 +203,10 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             let (k, x) = (&p.name, p.value);
             match p.sigma {
                 Some(s) => {
-                    let _ = writeln!(o, "   {k} = {x:.4e} +- {s:.1e}   [{}]", eng_param(k, x));
+                    let _ = writeln!(o, "   {k} = {x:.4e} +- {s:.1e}{}", bracket(k, x));
                 }
                 None => {
-                    let _ = writeln!(o, "   {k} = {x:.4e}   [{}]", eng_param(k, x));
+                    let _ = writeln!(o, "   {k} = {x:.4e}{}", bracket(k, x));
                 }
             }
         }
@@ -425,5 +446,26 @@ mod tests {
             .map(|k| model_adev(&g, k as f64))
             .fold(0.0, f64::max);
         assert!((peak - 0.62).abs() < 0.01, "{peak}");
+    }
+}
+
+#[cfg(test)]
+mod units_tests {
+    use super::eng_param;
+
+    #[test]
+    fn brackets_are_real_conversions_or_absent() {
+        // A rate-squared coefficient is per rad/s: per deg/s is pi/180 of
+        // it (it was printed as if it were a rate, "-323.006 deg/h").
+        let k2 = eng_param("k2_z_per_radps", -1.57e-3).unwrap();
+        assert_eq!(k2, "-2.7402e-5 per deg/s");
+        assert_eq!(eng_param("gyro_bias_z_radps", 1e-5).unwrap(), "2.063 deg/h");
+        assert_eq!(
+            eng_param("g_sens_xz_radps_per_mps2", 1e-5).unwrap(),
+            "20.2277 deg/h per g"
+        );
+        // Seconds and ratios: the SI value is the one to read.
+        assert_eq!(eng_param("gm_tau_x_s", 400.0), None);
+        assert_eq!(eng_param("scale_x", 1e-3), None);
     }
 }
