@@ -35,15 +35,10 @@ pub const STUCK_SAMPLES: usize = 100;
 /// A stuck run is this many times the channel's 99th-percentile run.
 pub const STUCK_OVER_P99: f64 = 10.0;
 
-/// The channels' names as in `imu.csv`.
-pub const CHANNELS: [&str; 6] = [
-    "gyro_x_radps",
-    "gyro_y_radps",
-    "gyro_z_radps",
-    "accel_x_mps2",
-    "accel_y_mps2",
-    "accel_z_mps2",
-];
+/// The channels' names as in `imu.csv` (its columns after `t_s`).
+pub fn channel_name(ch: usize) -> &'static str {
+    crate::IMU_COLS.get(ch + 1).copied().unwrap_or("?")
+}
 
 /// What is wrong with a sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,7 +58,7 @@ pub struct Implausible {
     pub row: usize,
     /// Its time, s.
     pub t_s: f64,
-    /// The channel (index into [`CHANNELS`]).
+    /// The channel (0-2 gyro x-z, 3-5 accelerometer x-z: [`channel_name`]).
     pub channel: usize,
     /// The reading.
     pub value: f64,
@@ -73,7 +68,7 @@ pub struct Implausible {
 
 impl std::fmt::Display for Implausible {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let name = CHANNELS.get(self.channel).copied().unwrap_or("?");
+        let name = channel_name(self.channel);
         write!(
             f,
             "imu.csv data row {} (t = {} s): {name} = {}, ",

@@ -4,6 +4,8 @@
 //! stepper table (its steps and the stepper's jerks included), the real
 //! walk (a hand's motion), the ADIS16405's static hours.
 
+mod common;
+
 use recording::plausible::{check, excluded, Kind};
 use recording::Recording;
 
@@ -12,16 +14,7 @@ fn stepper() -> Recording {
 }
 
 fn walk() -> Recording {
-    let d = rins_tests::data::bundled("gnss_imu_walk_0827");
-    let input = rins::import::RtklibInput {
-        pos: d.join("gnss_1730_sf.pos"),
-        imu: d.join("imu_1730.csv"),
-        columns: d.join("columns.toml"),
-        imu_tag: None,
-        geoid_m: -21.39,
-        sensor: hal_sim::sensor::resolve(d.join("sensor.toml").to_str().unwrap()).unwrap(),
-    };
-    rins::import::rtklib(&input).unwrap().0
+    rins::import::rtklib(&common::walk_input()).unwrap().0
 }
 
 #[test]

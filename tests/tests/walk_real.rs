@@ -5,6 +5,8 @@
 //! counts made independently in ORIGIN.md, the navigation against the
 //! receiver's own solution (the fixes withheld in the outages cut in).
 
+mod common;
+
 use rins::aided::{navigate, summary, AidedOptions};
 use rins::import::{rtklib, RtklibInput};
 use std::path::PathBuf;
@@ -14,17 +16,7 @@ fn dir() -> PathBuf {
 }
 
 fn input() -> RtklibInput {
-    let d = dir();
-    RtklibInput {
-        pos: d.join("gnss_1730_sf.pos"),
-        imu: d.join("imu_1730.csv"),
-        columns: d.join("columns.toml"),
-        imu_tag: None,
-        // ORIGIN.md: the heights are above mean sea level; the receiver's
-        // ellipsoidal height is 21.39 m below.
-        geoid_m: -21.39,
-        sensor: hal_sim::sensor::resolve(d.join("sensor.toml").to_str().unwrap()).unwrap(),
-    }
+    common::walk_input()
 }
 
 #[test]
