@@ -72,6 +72,7 @@ pub mod site;
 pub mod stats;
 pub mod strapdown;
 pub mod table;
+pub mod units;
 
 pub use error::NavError;
 pub use real::Real;

@@ -4,6 +4,7 @@
 
 use core::ops::Range;
 use core_nav::allan::{fit_noise, oadev_segments, octave_factors, AdevPoint, NoiseFit};
+use core_nav::units;
 
 /// The channel names, in the recording's column order (recording-v1).
 pub const CHANNELS: [&str; 6] = {
@@ -47,19 +48,7 @@ pub fn fit_channel(
 /// (gyro: deg/sqrt(h), deg/h; accelerometer: ug/sqrt(Hz), ug).
 pub fn describe(channel: usize, f: &NoiseFit) -> String {
     let gyro = channel < 3;
-    let (dens, level) = if gyro {
-        (
-            180.0 / core::f64::consts::PI * 60.0,
-            180.0 / core::f64::consts::PI * 3600.0,
-        )
-    } else {
-        (1e6 / G0, 1e6 / G0)
-    };
-    let (du, lu) = if gyro {
-        ("deg/sqrt(h)", "deg/h")
-    } else {
-        ("ug/sqrt(Hz)", "ug")
-    };
+    let ((dens, du), (level, lu)) = (units::density(gyro), units::level(gyro));
     let mut s = format!(
         "white {:.3} +- {:.3} {du}, bias instability {:.2} {lu}",
         f.white * dens,
@@ -74,10 +63,13 @@ pub fn describe(channel: usize, f: &NoiseFit) -> String {
         );
     }
     if f.rrw > 0.0 {
-        s += &format!(", rate random walk {:.3e} {lu}/sqrt(s)", f.rrw * level);
+        let rrw = f.rrw * level;
+        let rrw = if rrw >= 0.01 {
+            format!("{rrw:.3}")
+        } else {
+            format!("{rrw:.3e}")
+        };
+        s += &format!(", rate random walk {rrw} {lu}/sqrt(s)");
     }
     s
 }
-
-/// Standard gravity, m/s^2 (the unit g of ug).
-const G0: f64 = 9.806_65;

@@ -1,7 +1,7 @@
 //! `rins allan`: Allan deviation of the six IMU channels, noise fit, JSON
 //! (`rins-allan/1`) and a plot.
 
-use crate::plot::{Chart, Figure, Series};
+use crate::plot::{Chart, Dash, Figure, Series};
 use core_nav::allan::{AdevPoint, NoiseFit};
 pub use diagnose::noise_terms::{describe, fit_channel, CHANNELS, FIT_MIN_M, MIN_TERMS};
 use recording::Recording;
@@ -62,23 +62,30 @@ pub fn to_json(chs: &[ChannelAllan]) -> Value {
     json!({ "format": "rins-allan/1", "channels": Value::Object(m) })
 }
 
-/// Two charts (gyro above, accel below) in one figure.
+/// Two charts (gyro above, accel below) in one figure, in the book's
+/// units (deg/h, ug).
 pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
-    let chart = |range: std::ops::Range<usize>, unit: &str, what: &str| {
+    let chart = |range: std::ops::Range<usize>, what: &str| {
         let mut series = vec![];
+        let (k, unit) = core_nav::units::level(range.start < 3);
         for c in &chs[range] {
-            let mut s = Series::line(c.name, c.points.iter().map(|p| (p.tau_s, p.adev)).collect());
-            s.bars = Some(c.points.iter().map(|p| (p.lo, p.hi)).collect());
-            series.push(s);
-            let mut f = Series::line(
-                format!("fit {}", c.name.rsplit_once('_').map_or(c.name, |(a, _)| a)),
-                c.points
-                    .iter()
-                    .map(|p| (p.tau_s, c.fit.adev_at(p.tau_s)))
-                    .collect(),
+            let axis = c.name.rsplit_once('_').map_or(c.name, |(a, _)| a);
+            let mut s = Series::line(
+                format!("{axis} (bars: 68 % confidence)"),
+                c.points.iter().map(|p| (p.tau_s, p.adev * k)).collect(),
             );
-            f.dashed = true;
-            series.push(f);
+            s.bars = Some(c.points.iter().map(|p| (p.lo * k, p.hi * k)).collect());
+            series.push(s);
+            series.push(
+                Series::line(
+                    format!("{axis} noise fit"),
+                    c.points
+                        .iter()
+                        .map(|p| (p.tau_s, c.fit.adev_at(p.tau_s) * k))
+                        .collect(),
+                )
+                .with_dash(Dash::Dashed),
+            );
         }
         Chart {
             title: format!("{title}: {what}"),
@@ -87,13 +94,11 @@ pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
             log_x: true,
             log_y: true,
             series,
+            ..Chart::default()
         }
     };
     Figure {
-        charts: vec![
-            chart(0..3, "rad/s", "gyroscopes"),
-            chart(3..6, "m/s^2", "accelerometers"),
-        ],
+        charts: vec![chart(0..3, "gyroscopes"), chart(3..6, "accelerometers")],
     }
 }
 

@@ -259,8 +259,9 @@ impl OutageStudy {
 
 /// The drive demo's plots for one drive (`seed`) of `imu`: a map (east vs
 /// north) of the truth, the GNSS fixes, the conventional and the rotary
-/// tracks (`drive_map`), and the horizontal error of both against time
-/// with the filter's 3-sigma (`drive_error`).
+/// tracks (`drive_map`, one scale on both axes), and the horizontal error
+/// of both against time, each over its filter's 3-sigma band, the outages
+/// shaded (`drive_error`).
 ///
 /// # Errors
 /// A simulation, navigation or plotting failure.
@@ -270,21 +271,24 @@ pub fn plots(
     seed: u64,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>> {
-    use crate::plot::{Chart, Series};
+    use crate::plot::{Chart, Dash, Series};
     let mut map = Chart {
         title: format!(
             "{} drive, {} (seed {seed}): truth, GNSS fixes, conventional and rotary tracks",
             kind.name(),
             imu.name
         ),
-        x_label: "east (m)".into(),
-        y_label: "north (m)".into(),
+        x_label: "east [m]".into(),
+        y_label: "north [m]".into(),
+        equal_scale: true,
         ..Chart::default()
     };
     let mut err = Chart {
-        title: "horizontal error against the truth (dashed: the filter's 3-sigma); GNSS outages 10, 30, 60, 120 s".into(),
-        x_label: "time (s)".into(),
-        y_label: "m".into(),
+        title: "horizontal error against the truth through GNSS outages of 10, 30, 60 and 120 s"
+            .into(),
+        x_label: "time [s]".into(),
+        y_label: "horizontal position error [m]".into(),
+        shaded_label: "GNSS outage".into(),
         ..Chart::default()
     };
     for rotary in [false, true] {
@@ -310,29 +314,30 @@ pub fn plots(
             .and_then(|m| m.truth.clone())
             .unwrap_or_default();
         if !rotary {
-            map.series.push(Series::line(
-                "truth",
-                truth
-                    .iter()
-                    .step_by(50)
-                    .map(|r| (r.p_n_m[1], r.p_n_m[0]))
-                    .collect(),
-            ));
-            let mut g = Series::line("GNSS fixes", aided::fixes_en(&rec));
-            g.markers = true;
-            map.series.push(g);
+            map.series.push(
+                Series::line(
+                    "truth",
+                    truth
+                        .iter()
+                        .step_by(50)
+                        .map(|r| (r.p_n_m[1], r.p_n_m[0]))
+                        .collect(),
+                )
+                .with_dash(Dash::Solid),
+            );
+            map.series
+                .push(Series::points("GNSS fixes", aided::fixes_en(&rec)));
+            err.shaded = aided::fixless(&run);
         }
         let name = if rotary { "rotary" } else { "conventional" };
-        let mut track = Series::line(
+        map.series.push(Series::line(
             name,
             run.rows
                 .iter()
                 .step_by(50)
                 .map(|r| (r.traj.ned_m[1], r.traj.ned_m[0]))
                 .collect(),
-        );
-        track.dashed = !rotary;
-        map.series.push(track);
+        ));
         let pts: Vec<(f64, f64)> = run
             .rows
             .iter()
@@ -345,17 +350,15 @@ pub fn plots(
                 )
             })
             .collect();
-        err.series.push(Series::line(format!("{name} error"), pts));
-        let mut sig = Series::line(
-            format!("{name} 3-sigma"),
+        let mut e = Series::line(format!("{name} (band: its filter's 3-sigma)"), pts);
+        e.band = Some(
             run.rows
                 .iter()
                 .step_by(50)
-                .map(|r| (r.traj.t_s, 3.0 * r.sigma_p_m[0].hypot(r.sigma_p_m[1])))
+                .map(|r| (0.0, 3.0 * r.sigma_p_m[0].hypot(r.sigma_p_m[1])))
                 .collect(),
         );
-        sig.dashed = true;
-        err.series.push(sig);
+        err.series.push(e);
     }
     let mut out = map.write(&dir.join("drive_map"))?;
     out.extend(err.write(&dir.join("drive_error"))?);

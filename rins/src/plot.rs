@@ -5,8 +5,37 @@
 
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use std::path::{Path, PathBuf};
+
+/// A line's dash pattern. Series that do not ask for one get one by their
+/// place in the chart, so that no two series share both colour and dash.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dash {
+    /// Unbroken.
+    Solid,
+    /// Short dashes.
+    Dashed,
+    /// Dots.
+    Dotted,
+    /// Long dashes.
+    LongDash,
+}
+
+impl Dash {
+    const ALL: [Dash; 4] = [Dash::Solid, Dash::Dashed, Dash::Dotted, Dash::LongDash];
+
+    /// (dash, gap) in pixels; `None` for a solid line.
+    fn pattern(self) -> Option<(u32, u32)> {
+        match self {
+            Dash::Solid => None,
+            Dash::Dashed => Some((7, 4)),
+            Dash::Dotted => Some((2, 3)),
+            Dash::LongDash => Some((16, 5)),
+        }
+    }
+}
 
 /// One series.
 #[derive(Clone, Debug)]
@@ -17,10 +46,15 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     /// Optional (low, high) per point, drawn as error bars.
     pub bars: Option<Vec<(f64, f64)>>,
+    /// Optional (low, high) per point, drawn as a shaded band (e.g. +-3
+    /// sigma) under the line.
+    pub band: Option<Vec<(f64, f64)>>,
     /// Draw markers instead of a line.
     pub markers: bool,
-    /// Dashed line.
-    pub dashed: bool,
+    /// Hollow markers (e.g. "after" beside filled "before").
+    pub hollow: bool,
+    /// The dash pattern; `None`: by the series' place in the chart.
+    pub dash: Option<Dash>,
 }
 
 impl Series {
@@ -30,9 +64,26 @@ impl Series {
             label: label.into(),
             points,
             bars: None,
+            band: None,
             markers: false,
-            dashed: false,
+            hollow: false,
+            dash: None,
         }
+    }
+
+    /// Points drawn as markers.
+    pub fn points(label: impl Into<String>, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            markers: true,
+            ..Self::line(label, points)
+        }
+    }
+
+    /// The same series with this dash pattern.
+    #[must_use]
+    pub fn with_dash(mut self, dash: Dash) -> Self {
+        self.dash = Some(dash);
+        self
     }
 }
 
@@ -41,20 +92,29 @@ impl Series {
 pub struct Chart {
     /// Title.
     pub title: String,
-    /// x label.
+    /// x label, with its unit in brackets.
     pub x_label: String,
-    /// y label.
+    /// y label, with its unit in brackets.
     pub y_label: String,
     /// Log x axis.
     pub log_x: bool,
     /// Log y axis.
     pub log_y: bool,
+    /// One unit is as long on both axes (a map).
+    pub equal_scale: bool,
+    /// The lowest value a log y axis shows (default: six decades below
+    /// its highest); lower values are drawn at the axis.
+    pub y_floor: Option<f64>,
+    /// x intervals shaded from top to bottom (e.g. GNSS outages).
+    pub shaded: Vec<(f64, f64)>,
+    /// The legend's name for the shaded intervals.
+    pub shaded_label: String,
     /// Series.
     pub series: Vec<Series>,
 }
 
 /// Size of one chart, pixels.
-const SIZE: (u32, u32) = (900, 480);
+const SIZE: (u32, u32) = (960, 480);
 
 /// The embedded font, registered once as "sans-serif".
 fn font() -> &'static str {
@@ -87,23 +147,83 @@ fn err<E: std::fmt::Display>(e: E) -> PlotError {
     PlotError(e.to_string())
 }
 
-fn color(k: usize) -> RGBColor {
-    const C: [(u8, u8, u8); 12] = [
-        (0x1f, 0x77, 0xb4),
-        (0xd6, 0x27, 0x28),
-        (0x2c, 0xa0, 0x2c),
-        (0xff, 0x7f, 0x0e),
-        (0x94, 0x67, 0xbd),
-        (0x8c, 0x56, 0x4b),
-        (0xe3, 0x77, 0xc2),
-        (0x7f, 0x7f, 0x7f),
-        (0xbc, 0xbd, 0x22),
-        (0x17, 0xbe, 0xcf),
-        (0x00, 0x00, 0x00),
-        (0xaa, 0x66, 0x00),
-    ];
-    let (r, g, b) = C[k % C.len()];
-    RGBColor(r, g, b)
+/// The Okabe-Ito palette (colour-blind safe), without its yellow, which
+/// does not show on white.
+const PALETTE: [(u8, u8, u8); 7] = [
+    (0x00, 0x72, 0xb2), // blue
+    (0xd5, 0x5e, 0x00), // vermillion
+    (0x00, 0x9e, 0x73), // bluish green
+    (0xcc, 0x79, 0xa7), // reddish purple
+    (0xe6, 0x9f, 0x00), // orange
+    (0x56, 0xb4, 0xe9), // sky blue
+    (0x00, 0x00, 0x00), // black
+];
+
+/// The colour and the default dash of the `k`-th series: the pair is
+/// unique for the first 28 series (7 colours by 4 dashes, both cycling).
+fn look(k: usize) -> (RGBColor, Dash) {
+    let (r, g, b) = PALETTE[k % PALETTE.len()];
+    (RGBColor(r, g, b), Dash::ALL[k % Dash::ALL.len()])
+}
+
+/// A tick label: the shortest text that keeps the value (no "-0", no
+/// "50.0", no "0.30000000000000004"); powers of ten below 0.001 or from
+/// 100,000 on as "1e-5".
+pub fn tick(v: f64) -> String {
+    if !v.is_finite() {
+        return String::new();
+    }
+    let a = v.abs();
+    if a < 1e-12 {
+        return "0".into();
+    }
+    if !(1e-3..1e5).contains(&a) {
+        let s = format!("{v:.4e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = m.trim_end_matches('0').trim_end_matches('.');
+        return format!("{m}e{e}");
+    }
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.into()
+    }
+}
+
+/// Characters on one line of the legend; a longer label wraps at spaces.
+const LEGEND_CHARS: usize = 30;
+
+/// A legend label in lines of at most [`LEGEND_CHARS`] (a longer word
+/// keeps its own line).
+fn wrap(label: &str) -> Vec<String> {
+    let mut lines: Vec<String> = vec![];
+    for w in label.split_whitespace() {
+        match lines.last_mut() {
+            Some(l) if l.chars().count() + 1 + w.chars().count() <= LEGEND_CHARS => {
+                l.push(' ');
+                l.push_str(w);
+            }
+            _ => lines.push(w.to_string()),
+        }
+    }
+    lines
+}
+
+/// Width of the legend panel for these labels, pixels (none without).
+fn legend_width(labels: &[&str]) -> u32 {
+    let longest = labels
+        .iter()
+        .flat_map(|l| wrap(l))
+        .map(|l| l.chars().count())
+        .max()
+        .unwrap_or(0);
+    if longest == 0 {
+        0
+    } else {
+        (longest as u32 * 7 + 48).max(110)
+    }
 }
 
 impl Chart {
@@ -112,8 +232,8 @@ impl Chart {
         x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0) && (!self.log_y || y > 0.0)
     }
 
-    /// The axis ranges: padded for linear axes, whole decades for log.
-    fn ranges(&self) -> ((f64, f64), (f64, f64)) {
+    /// Every drawable (x, y) of the chart: points, bars, bands.
+    fn extent(&self) -> (Vec<f64>, Vec<f64>) {
         let (mut xs, mut ys) = (vec![], vec![]);
         for s in &self.series {
             for (i, (x, y)) in s.points.iter().enumerate() {
@@ -122,49 +242,63 @@ impl Chart {
                 }
                 xs.push(*x);
                 ys.push(*y);
-                if let Some((lo, hi)) = s.bars.as_ref().and_then(|b| b.get(i)) {
-                    for v in [*lo, *hi] {
-                        if self.ok(*x, v) {
-                            ys.push(v);
-                        }
-                    }
+                let extra = [s.bars.as_ref(), s.band.as_ref()];
+                for (lo, hi) in extra.into_iter().flatten().filter_map(|b| b.get(i)) {
+                    ys.extend([*lo, *hi].into_iter().filter(|v| self.ok(*x, *v)));
                 }
             }
         }
-        let range = |v: &[f64], log: bool| {
-            let (mut lo, mut hi) = v
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
-                    (a.min(*x), b.max(*x))
-                });
-            if !lo.is_finite() {
-                return if log { (0.1, 1.0) } else { (0.0, 1.0) };
-            }
-            if log {
-                let (a, b) = (lo.log10().floor(), hi.log10().ceil());
-                (10f64.powf(a), 10f64.powf(if b > a { b } else { a + 1.0 }))
-            } else {
-                if lo == hi {
-                    lo -= 1.0;
-                    hi += 1.0;
-                }
-                let pad = (hi - lo) * 0.05;
-                (lo - pad, hi + pad)
-            }
-        };
-        (range(&xs, self.log_x), range(&ys, self.log_y))
+        (xs, ys)
     }
 
-    /// Draws the chart on `area`.
+    /// The axis ranges: padded for linear axes, whole decades for log;
+    /// widened to one scale on both axes for a map (`px`: the plotting
+    /// area's width and height in pixels).
+    fn ranges(&self, px: (u32, u32)) -> ((f64, f64), (f64, f64)) {
+        let (xs, ys) = self.extent();
+        let (mut xr, mut yr) = (range(&xs, self.log_x), range(&ys, self.log_y));
+        if let Some(f) = self.y_floor.filter(|f| self.log_y && *f > 0.0 && *f < yr.1) {
+            yr.0 = f;
+        }
+        if self.equal_scale && !self.log_x && !self.log_y {
+            let (w, h) = (f64::from(px.0.max(1)), f64::from(px.1.max(1)));
+            let per_px = ((xr.1 - xr.0) / w).max((yr.1 - yr.0) / h);
+            let widen = |(lo, hi): (f64, f64), n: f64| {
+                let (mid, half) = ((lo + hi) / 2.0, per_px * n / 2.0);
+                (mid - half, mid + half)
+            };
+            xr = widen(xr, w);
+            yr = widen(yr, h);
+        }
+        (xr, yr)
+    }
+
+    /// Draws the chart, its title and its legend on `area`.
     fn draw<DB: DrawingBackend>(&self, area: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
         area.fill(&WHITE).map_err(err)?;
-        let ((x0, x1), (y0, y1)) = self.ranges();
-        match (self.log_x, self.log_y) {
-            (false, false) => self.draw_on(area, x0..x1, y0..y1),
-            (true, false) => self.draw_on(area, (x0..x1).log_scale(), y0..y1),
-            (false, true) => self.draw_on(area, x0..x1, (y0..y1).log_scale()),
-            (true, true) => self.draw_on(area, (x0..x1).log_scale(), (y0..y1).log_scale()),
+        let f = font();
+        let body = area.titled(&self.title, (f, 17)).map_err(err)?;
+        let mut labels: Vec<&str> = self.series.iter().map(|s| s.label.as_str()).collect();
+        if !self.shaded.is_empty() {
+            labels.push(self.shaded_label.as_str());
         }
+        labels.retain(|l| !l.is_empty());
+        let (w, h) = body.dim_in_pixel();
+        let lw = legend_width(&labels).min(w / 2);
+        let (plot, legend) = body.split_horizontally(w - lw);
+        // The plotting area's pixels: the body less label areas and margins.
+        let px = (
+            (w - lw).saturating_sub(LABEL_Y + 2 * MARGIN),
+            h.saturating_sub(LABEL_X + 2 * MARGIN),
+        );
+        let ((x0, x1), (y0, y1)) = self.ranges(px);
+        match (self.log_x, self.log_y) {
+            (false, false) => self.draw_on(&plot, x0..x1, y0..y1)?,
+            (true, false) => self.draw_on(&plot, (x0..x1).log_scale(), y0..y1)?,
+            (false, true) => self.draw_on(&plot, x0..x1, (y0..y1).log_scale())?,
+            (true, true) => self.draw_on(&plot, (x0..x1).log_scale(), (y0..y1).log_scale())?,
+        }
+        self.draw_legend(&legend)
     }
 
     fn draw_on<DB, X, Y>(
@@ -182,74 +316,152 @@ impl Chart {
     {
         let f = font();
         let mut cc = ChartBuilder::on(area)
-            .caption(&self.title, (f, 17))
-            .margin(12)
-            .x_label_area_size(42)
-            .y_label_area_size(78)
+            .margin(MARGIN)
+            .x_label_area_size(LABEL_X)
+            .y_label_area_size(LABEL_Y)
             .build_cartesian_2d(xr, yr)
             .map_err(err)?;
+        let fmt = |v: &f64| tick(*v);
         cc.configure_mesh()
             .x_desc(self.x_label.as_str())
             .y_desc(self.y_label.as_str())
+            .x_label_formatter(&fmt)
+            .y_label_formatter(&fmt)
             .label_style((f, 12))
             .axis_desc_style((f, 13))
-            .light_line_style(RGBColor(0xee, 0xee, 0xee))
+            .max_light_lines(1)
+            .light_line_style(RGBColor(0xf2, 0xf2, 0xf2))
+            .bold_line_style(RGBColor(0xdd, 0xdd, 0xdd))
             .draw()
             .map_err(err)?;
+        let (ylo, yhi) = {
+            let r = cc.y_range();
+            (r.start, r.end)
+        };
+        let shade = RGBColor(0x99, 0x99, 0x99).mix(0.22).filled();
+        cc.draw_series(
+            self.shaded
+                .iter()
+                .map(|(a, b)| Rectangle::new([(*a, ylo), (*b, yhi)], shade)),
+        )
+        .map_err(err)?;
         for (k, s) in self.series.iter().enumerate() {
-            let c = color(k);
-            let pts: Vec<(f64, f64)> = s
+            self.draw_series(&mut cc, k, s)?;
+        }
+        Ok(())
+    }
+
+    fn draw_series<DB, X, Y>(
+        &self,
+        cc: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+        k: usize,
+        s: &Series,
+    ) -> Result<(), PlotError>
+    where
+        DB: DrawingBackend,
+        X: Ranged<ValueType = f64>,
+        Y: Ranged<ValueType = f64>,
+    {
+        let (c, auto) = look(k);
+        let keep = |(x, y): &(f64, f64)| self.ok(*x, *y);
+        let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(keep).collect();
+        if let Some(band) = &s.band {
+            let (lo, hi): (Vec<_>, Vec<_>) = s
                 .points
                 .iter()
-                .copied()
-                .filter(|(x, y)| self.ok(*x, *y))
-                .collect();
-            let style = c.stroke_width(2);
-            let legend = move |(x, y): (i32, i32)| {
-                PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(3))
+                .zip(band)
+                .filter(|((x, _), (l, h))| self.ok(*x, *l) && self.ok(*x, *h))
+                .map(|((x, _), (l, h))| ((*x, *l), (*x, *h)))
+                .unzip();
+            let outline: Vec<_> = hi.into_iter().chain(lo.into_iter().rev()).collect();
+            cc.draw_series(std::iter::once(Polygon::new(outline, c.mix(0.18).filled())))
+                .map_err(err)?;
+        }
+        let width = if pts.len() > 3000 { 1 } else { 2 };
+        let style = c.stroke_width(width);
+        if s.markers {
+            let fill = if s.hollow {
+                c.stroke_width(1)
+            } else {
+                c.filled()
             };
+            cc.draw_series(pts.iter().map(|p| Circle::new(*p, 3, fill)))
+                .map_err(err)?;
+        } else {
+            match s.dash.unwrap_or(auto).pattern() {
+                None => cc.draw_series(LineSeries::new(pts, style)).map_err(err)?,
+                Some((d, g)) => cc
+                    .draw_series(DashedLineSeries::new(pts, d, g, style))
+                    .map_err(err)?,
+            };
+        }
+        if let Some(bars) = &s.bars {
+            let bars: Vec<_> = s
+                .points
+                .iter()
+                .zip(bars)
+                .filter(|((x, y), (lo, hi))| {
+                    self.ok(*x, *y) && self.ok(*x, *lo) && self.ok(*x, *hi)
+                })
+                .map(|((x, y), (lo, hi))| ErrorBar::new_vertical(*x, *lo, *y, *hi, c, 6))
+                .collect();
+            cc.draw_series(bars).map_err(err)?;
+        }
+        Ok(())
+    }
+
+    /// The legend, in its own panel right of the plot (never over the
+    /// data): each series' colour, dash or marker, and its label.
+    fn draw_legend<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        let f = font();
+        let text = (f, 12).into_font().color(&BLACK);
+        let (x, mut y) = (8i32, MARGIN as i32 + 8);
+        let row = 20;
+        const LINE: i32 = 15;
+        for (k, s) in self.series.iter().enumerate() {
+            if s.label.is_empty() {
+                continue;
+            }
+            let (c, auto) = look(k);
+            if s.band.is_some() {
+                area.draw(&Rectangle::new(
+                    [(x, y - 6), (x + 24, y + 6)],
+                    c.mix(0.18).filled(),
+                ))
+                .map_err(err)?;
+            }
             if s.markers {
-                // Dashed markers: hollow (e.g. "after" beside "before").
-                let fill = if s.dashed {
+                let fill = if s.hollow {
                     c.stroke_width(1)
                 } else {
                     c.filled()
                 };
-                cc.draw_series(pts.iter().map(|p| Circle::new(*p, 3, fill)))
-                    .map_err(err)?
-                    .label(s.label.as_str())
-                    .legend(legend);
-            } else if s.dashed {
-                cc.draw_series(DashedLineSeries::new(pts, 6, 4, style))
-                    .map_err(err)?
-                    .label(s.label.as_str())
-                    .legend(legend);
+                area.draw(&Circle::new((x + 12, y), 4, fill)).map_err(err)?;
             } else {
-                cc.draw_series(LineSeries::new(pts, style))
-                    .map_err(err)?
-                    .label(s.label.as_str())
-                    .legend(legend);
+                let line = vec![(x, y), (x + 24, y)];
+                match s.dash.unwrap_or(auto).pattern() {
+                    None => area.draw(&PathElement::new(line, c.stroke_width(2))),
+                    Some((d, g)) => {
+                        area.draw(&DashedPathElement::new(line, d, g, c.stroke_width(2)))
+                    }
+                }
+                .map_err(err)?;
             }
-            if let Some(bars) = &s.bars {
-                let bars: Vec<_> = s
-                    .points
-                    .iter()
-                    .zip(bars)
-                    .filter(|((x, y), (lo, hi))| {
-                        self.ok(*x, *y) && self.ok(*x, *lo) && self.ok(*x, *hi)
-                    })
-                    .map(|((x, y), (lo, hi))| ErrorBar::new_vertical(*x, *lo, *y, *hi, c, 6))
-                    .collect();
-                cc.draw_series(bars).map_err(err)?;
+            for line in wrap(&s.label) {
+                area.draw(&Text::new(line, (x + 32, y - 7), text.clone()))
+                    .map_err(err)?;
+                y += LINE;
             }
+            y += row - LINE;
         }
-        if self.series.iter().any(|s| !s.label.is_empty()) {
-            cc.configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.4))
-                .label_font((f, 12))
-                .draw()
+        if !self.shaded.is_empty() && !self.shaded_label.is_empty() {
+            let shade = RGBColor(0x99, 0x99, 0x99).mix(0.22).filled();
+            area.draw(&Rectangle::new([(x, y - 7), (x + 24, y + 7)], shade))
+                .map_err(err)?;
+            area.draw(&Text::new(self.shaded_label.clone(), (x + 32, y - 7), text))
                 .map_err(err)?;
         }
         Ok(())
@@ -269,6 +481,40 @@ impl Chart {
     /// A drawing failure or a file that cannot be written.
     pub fn write(&self, stem: &Path) -> Result<Vec<PathBuf>, PlotError> {
         Figure::one(self.clone()).write(stem)
+    }
+}
+
+/// Margin around a chart's plot, pixels.
+const MARGIN: u32 = 12;
+/// Height of the x axis' tick labels and description, pixels.
+const LABEL_X: u32 = 42;
+/// Width of the y axis' tick labels and description, pixels.
+const LABEL_Y: u32 = 78;
+
+/// An axis range over `v`: padded by 5 % when linear, whole decades when
+/// log (six at most); a unit range around nothing.
+fn range(v: &[f64], log: bool) -> (f64, f64) {
+    let (mut lo, mut hi) = v
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(*x), b.max(*x))
+        });
+    if !lo.is_finite() {
+        return if log { (0.1, 1.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        // At most six decades: a value that starts at zero (an error at
+        // t = 0) would otherwise stretch the axis to 1e-15.
+        let b = hi.log10().ceil();
+        let a = lo.log10().floor().max(b - 6.0);
+        (10f64.powf(a), 10f64.powf(if b > a { b } else { a + 1.0 }))
+    } else {
+        if lo == hi {
+            lo -= 1.0;
+            hi += 1.0;
+        }
+        let pad = (hi - lo) * 0.05;
+        (lo - pad, hi + pad)
     }
 }
 
@@ -348,8 +594,8 @@ mod tests {
                 .collect(),
         );
         s.bars = Some(s.points.iter().map(|(_, y)| (y * 0.9, y * 1.1)).collect());
-        let mut d = Series::line("b", vec![(1.0, 2.0), (40.0, 0.5), (f64::NAN, 1.0)]);
-        d.dashed = true;
+        let d = Series::line("b", vec![(1.0, 2.0), (40.0, 0.5), (f64::NAN, 1.0)])
+            .with_dash(Dash::Dashed);
         Chart {
             title: "test chart".into(),
             x_label: "x [s]".into(),
@@ -357,6 +603,7 @@ mod tests {
             log_x: true,
             log_y: true,
             series: vec![s, d],
+            ..Chart::default()
         }
     }
 
@@ -388,5 +635,74 @@ mod tests {
         Figure::one(titled).png(&pt).unwrap();
         assert_ne!(std::fs::read(&pb).unwrap(), std::fs::read(&pt).unwrap());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn ticks_are_the_shortest_faithful_text() {
+        for (v, t) in [
+            (-0.0, "0"),
+            (1e-17, "0"),
+            (50.0, "50"),
+            (0.1 + 0.2, "0.3"),
+            (-2.5, "-2.5"),
+            (1e-5, "1e-5"),
+            (2.5e-5, "2.5e-5"),
+            (250_000.0, "2.5e5"),
+            (12_000.0, "12000"),
+            (0.001, "0.001"),
+        ] {
+            assert_eq!(tick(v), t, "{v}");
+        }
+    }
+
+    #[test]
+    fn no_two_series_share_colour_and_dash() {
+        let looks: Vec<_> = (0..28).map(look).collect();
+        for (i, a) in looks.iter().enumerate() {
+            for b in &looks[..i] {
+                assert!(a != b, "series {i} repeats {a:?}");
+            }
+        }
+    }
+
+    /// The x of every `<text>` whose content is `t` in an SVG.
+    fn text_x(svg: &str, t: &str) -> Vec<f64> {
+        let lines: Vec<&str> = svg.lines().collect();
+        lines
+            .windows(2)
+            .filter(|w| w[1].trim() == t && w[0].contains("<text"))
+            .filter_map(|w| {
+                let a = w[0].split("x=\"").nth(1)?;
+                a.split('"').next()?.parse().ok()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_legend_is_right_of_the_plot() {
+        // The plot's x axis ends where its last tick is; every legend label
+        // starts right of that.
+        let svg = chart().svg().unwrap();
+        let legend = text_x(&svg, "a")[0].min(text_x(&svg, "b")[0]);
+        let axis_end = text_x(&svg, "10")
+            .into_iter()
+            .chain(text_x(&svg, "100"))
+            .fold(0.0, f64::max);
+        assert!(axis_end > 100.0, "no tick label found: {axis_end}");
+        assert!(legend > axis_end, "legend at {legend}, axis to {axis_end}");
+    }
+
+    #[test]
+    fn a_map_has_one_scale() {
+        let c = Chart {
+            equal_scale: true,
+            series: vec![Series::line("", vec![(0.0, 0.0), (100.0, 10.0)])],
+            ..Chart::default()
+        };
+        let px = (800, 400);
+        let ((x0, x1), (y0, y1)) = c.ranges(px);
+        let (sx, sy) = ((x1 - x0) / 800.0, (y1 - y0) / 400.0);
+        assert!((sx - sy).abs() < 1e-12 * sx, "{sx} m/px against {sy}");
+        assert!(x0 <= 0.0 && x1 >= 100.0 && y0 <= 0.0 && y1 >= 10.0);
     }
 }

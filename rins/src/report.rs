@@ -2,9 +2,9 @@
 //! velocity errors, roll / pitch / heading errors over time, and errors
 //! against the table rate.
 
-use crate::nav::TrajRow;
-use crate::plot::{Chart, PlotError, Series};
-use crate::reproduce::Row;
+use crate::nav::{StaticErrors, TrajRow};
+use crate::plot::{Chart, Dash, PlotError, Series};
+use crate::reproduce::{Row, PAPER, RATES_DPS};
 use core_nav::real::wrap_pi;
 
 /// The angle error `a - b` wrapped to (-180, 180], deg.
@@ -49,64 +49,62 @@ pub fn nav_charts(runs: &[(&str, &[TrajRow])], base_rph_deg: [f64; 3]) -> Vec<Na
             })
             .collect()
     };
-    let mut out = vec![];
-    let mut pos = series(&|r| r.ned_m[0].hypot(r.ned_m[1]), "");
-    pos.iter_mut()
-        .for_each(|s| s.label = format!("{} horizontal", s.label));
-    out.push(NamedChart {
-        stem: "position_error".into(),
-        chart: Chart {
-            title: "Horizontal position error".into(),
-            x_label: "time [s]".into(),
-            y_label: "m".into(),
-            series: pos,
-            ..Chart::default()
-        },
-    });
-    let vel = series(&|r| r.v_mps[0].hypot(r.v_mps[1]), " horizontal");
-    out.push(NamedChart {
-        stem: "velocity_error".into(),
-        chart: Chart {
-            title: "Horizontal velocity error".into(),
-            x_label: "time [s]".into(),
-            y_label: "m/s".into(),
-            series: vel,
-            ..Chart::default()
-        },
-    });
+    let chart =
+        |stem: &str, title: &str, y_label: &str, log_y: bool, series: Vec<Series>| NamedChart {
+            stem: stem.into(),
+            chart: Chart {
+                title: title.into(),
+                x_label: "time [s]".into(),
+                y_label: y_label.into(),
+                log_y,
+                series,
+                ..Chart::default()
+            },
+        };
     let mut att = series(&|r| angle_error_deg(r.rph_deg[0], base_rph_deg[0]), " roll");
     att.extend(series(
         &|r| angle_error_deg(r.rph_deg[1], base_rph_deg[1]),
         " pitch",
     ));
-    out.push(NamedChart {
-        stem: "roll_pitch_error".into(),
-        chart: Chart {
-            title: "Roll and pitch errors (base)".into(),
-            x_label: "time [s]".into(),
-            y_label: "deg".into(),
-            series: att,
-            ..Chart::default()
-        },
-    });
-    let hdg = series(
-        &|r| angle_error_deg(r.rph_deg[2], base_rph_deg[2]),
-        " heading",
-    );
-    out.push(NamedChart {
-        stem: "heading_error".into(),
-        chart: Chart {
-            title: "Heading error (base)".into(),
-            x_label: "time [s]".into(),
-            y_label: "deg".into(),
-            series: hdg,
-            ..Chart::default()
-        },
-    });
-    out
+    // Position and velocity errors grow by decades: log axes, so that the
+    // smaller run is not a flat line under the larger.
+    vec![
+        chart(
+            "position_error",
+            "Horizontal position error",
+            "horizontal position error [m]",
+            true,
+            series(&|r| r.ned_m[0].hypot(r.ned_m[1]), ""),
+        ),
+        chart(
+            "velocity_error",
+            "Horizontal velocity error",
+            "horizontal velocity error [m/s]",
+            true,
+            series(&|r| r.v_mps[0].hypot(r.v_mps[1]), ""),
+        ),
+        chart(
+            "roll_pitch_error",
+            "Roll and pitch errors (against the base)",
+            "angle error [deg]",
+            false,
+            att,
+        ),
+        chart(
+            "heading_error",
+            "Heading error (against the base)",
+            "heading error [deg]",
+            false,
+            series(&|r| angle_error_deg(r.rph_deg[2], base_rph_deg[2]), ""),
+        ),
+    ]
 }
 
-/// RMS errors against the table rate per mode (Fig. 8/9/11/12 kinds).
+/// RMS errors against the table rate per mode (Fig. 8/9/11/12 kinds):
+/// each mode's mean over the runs with the runs' spread (lowest to
+/// highest) as bars, the conventional run's mean as a level, and the
+/// paper's published means over all rates as dashed levels where it gives
+/// them (position and velocity).
 pub fn reproduce_charts(rows: &[Row], imu: &str) -> Vec<NamedChart> {
     let modes = [
         "rotary-partial",
@@ -114,64 +112,93 @@ pub fn reproduce_charts(rows: &[Row], imu: &str) -> Vec<NamedChart> {
         "rotary-best",
         "noise-floor",
     ];
-    let by = |f: &dyn Fn(&Row) -> f64| -> Vec<Series> {
+    let (r0, r1) = (RATES_DPS[0], RATES_DPS[RATES_DPS.len() - 1]);
+    let by = |f: &dyn Fn(&StaticErrors) -> f64, paper: Option<usize>| -> Vec<Series> {
         let mut v: Vec<Series> = modes
             .iter()
             .map(|m| {
-                Series::line(
+                let mine: Vec<&Row> = rows.iter().filter(|r| r.mode == *m).collect();
+                let mut s = Series::line(
                     *m,
-                    rows.iter()
-                        .filter(|r| r.mode == *m)
-                        .map(|r| (r.rate_dps, f(r)))
-                        .collect(),
-                )
+                    mine.iter().map(|r| (r.rate_dps, f(&r.mean()))).collect(),
+                );
+                s.bars = Some(mine.iter().map(|r| spread(&r.runs, f)).collect());
+                s
             })
             .collect();
         if let Some(c) = rows.iter().find(|r| r.mode == "conventional") {
-            let mut s = Series::line("conventional", vec![(10.0, f(c)), (100.0, f(c))]);
-            s.dashed = true;
-            v.push(s);
+            let y = f(&c.mean());
+            v.push(
+                Series::line("conventional (still)", vec![(r0, y), (r1, y)])
+                    .with_dash(Dash::LongDash),
+            );
+        }
+        for (_, mode, pos, vel) in PAPER.iter().filter(|(i, ..)| *i == imu) {
+            if let Some(k) = paper {
+                let y = [*pos, *vel][k];
+                v.push(
+                    Series::line(
+                        format!("paper: {mode}, mean over rates"),
+                        vec![(r0, y), (r1, y)],
+                    )
+                    .with_dash(Dash::Dashed),
+                );
+            }
         }
         v
     };
-    let chart = |title: &str, unit: &str, f: &dyn Fn(&Row) -> f64, log: bool| Chart {
-        title: format!("{imu}: {title}"),
-        x_label: "table rate [deg/s]".into(),
-        y_label: unit.into(),
-        log_y: log,
-        series: by(f),
-        ..Chart::default()
-    };
-    let named = |stem: &str, chart: Chart| NamedChart {
+    let chart = |stem: &str,
+                 title: &str,
+                 unit: &str,
+                 f: &dyn Fn(&StaticErrors) -> f64,
+                 paper: Option<usize>| NamedChart {
         stem: stem.into(),
-        chart,
+        chart: Chart {
+            title: format!("{imu}: {title} (bars: the runs' spread)"),
+            x_label: "table rate [deg/s]".into(),
+            y_label: unit.into(),
+            log_y: true,
+            series: by(f, paper),
+            ..Chart::default()
+        },
     };
     vec![
-        named(
+        chart(
             "rms_position",
-            chart(
-                "RMS horizontal position error",
-                "m",
-                &|r| r.h_pos_rms_m,
-                true,
-            ),
+            "RMS horizontal position error over 5 min",
+            "RMS horizontal position error [m]",
+            &|e| e.h_pos_rms_m,
+            Some(0),
         ),
-        named(
+        chart(
             "rms_velocity",
-            chart(
-                "RMS horizontal velocity error",
-                "m/s",
-                &|r| r.h_vel_rms_mps,
-                true,
-            ),
+            "RMS horizontal velocity error over 5 min",
+            "RMS horizontal velocity error [m/s]",
+            &|e| e.h_vel_rms_mps,
+            Some(1),
         ),
-        named(
+        chart(
             "rms_roll_pitch",
-            chart("RMS roll error", "deg", &|r| r.roll_rms_deg, true),
+            "RMS level error (roll and pitch) over 5 min",
+            "RMS level error [deg]",
+            &|e| e.roll_rms_deg.hypot(e.pitch_rms_deg) / 2f64.sqrt(),
+            None,
         ),
-        named(
+        chart(
             "rms_heading",
-            chart("RMS heading error", "deg", &|r| r.heading_rms_deg, true),
+            "RMS heading error over 5 min",
+            "RMS heading error [deg]",
+            &|e| e.heading_rms_deg,
+            None,
         ),
     ]
+}
+
+/// The lowest and highest of `f` over `runs`.
+fn spread(runs: &[StaticErrors], f: &dyn Fn(&StaticErrors) -> f64) -> (f64, f64) {
+    runs.iter()
+        .map(f)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        })
 }

@@ -79,6 +79,15 @@ pub struct Row {
     pub pitch_rms_deg: f64,
     /// Heading RMS, deg.
     pub heading_rms_deg: f64,
+    /// Each run's errors, in seed order (the means above are theirs).
+    pub runs: Vec<StaticErrors>,
+}
+
+impl Row {
+    /// The runs' mean errors.
+    pub fn mean(&self) -> StaticErrors {
+        mean(&self.runs)
+    }
 }
 
 const CAL_S: f64 = 120.0;
@@ -225,7 +234,8 @@ pub fn mean(e: &[StaticErrors]) -> StaticErrors {
     m
 }
 
-fn row(mode: &str, rate_dps: f64, e: &StaticErrors) -> Row {
+fn row(mode: &str, rate_dps: f64, runs: Vec<StaticErrors>) -> Row {
+    let e = mean(&runs);
     Row {
         mode: mode.to_string(),
         rate_dps,
@@ -234,6 +244,7 @@ fn row(mode: &str, rate_dps: f64, e: &StaticErrors) -> Row {
         roll_rms_deg: e.roll_rms_deg,
         pitch_rms_deg: e.pitch_rms_deg,
         heading_rms_deg: e.heading_rms_deg,
+        runs,
     }
 }
 
@@ -264,7 +275,7 @@ pub fn reproduce(
         done += 1.0;
         progress(done / total);
     }
-    rows.push(row("conventional", 0.0, &mean(&conv)));
+    rows.push(row("conventional", 0.0, conv));
     for (name, plan) in plans {
         for &r in rates {
             let mut es = vec![];
@@ -273,7 +284,7 @@ pub fn reproduce(
                 done += 1.0;
                 progress(done / total);
             }
-            rows.push(row(name, r, &mean(&es)));
+            rows.push(row(name, r, es));
         }
     }
     Ok(rows)

@@ -81,15 +81,16 @@ fn calibrate_navigate_allan_on_a_simulated_run() {
     }
     // allan: rins-allan/1 with all six channels and their keys.
     let aj = dir.join("allan.json");
-    let ap = dir.join("allan.svg");
+    let ap = dir.join("allan-plots");
     ok(&rins(&[
         "allan",
         &s(&rec),
         "--json",
         &s(&aj),
-        "--plot",
+        "--plots",
         &s(&ap),
     ]));
+    assert!(ap.join("allan.png").is_file() && ap.join("allan.svg").is_file());
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&aj).unwrap()).unwrap();
     assert_eq!(v["format"], "rins-allan/1");
@@ -181,7 +182,7 @@ fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run
     let nav = dir.join("nav");
     let out = ok(&rins(&["navigate", &s(&rec), "--gnss", "--out", &s(&nav)]));
     assert!(out.contains("wrote 6 plots"), "{out}");
-    for f in ["map.png", "horizontal_error.svg", "consistency.png"] {
+    for f in ["map.png", "position_error.svg", "consistency.png"] {
         let len = std::fs::metadata(nav.join(f)).unwrap().len();
         assert!(len > 10_000, "{f}: {len} bytes");
     }

@@ -29,7 +29,7 @@ pub mod align;
 pub mod offset;
 mod plots;
 mod summary;
-pub use plots::{fixes_en, plots};
+pub use plots::{fixes_en, fixless, plots};
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};
 
 pub use core_nav::aided::{GNSS_CORR_SHARE, ZUPT_SIGMA_MPS, ZUPT_WINDOW};

@@ -1,10 +1,11 @@
 //! What `navigate --gnss` draws: the map (the track, the fixes, the truth
-//! when there is one), the horizontal error against the truth with the
-//! filter's 3-sigma (or the 3-sigma alone), and the filter's consistency
+//! when there is one; one scale on both axes), the north and east errors
+//! against the truth (or the fixes) in the filter's +-3 sigma band with the
+//! spans without a fix shaded, and the filter's consistency
 //! over time (NEES and NIS per degree of freedom).
 
-use super::AidedRun;
-use crate::plot::{Chart, Figure, Series};
+use super::{AidedRow, AidedRun};
+use crate::plot::{Chart, Dash, Figure, Series};
 use anyhow::Result;
 use recording::Recording;
 use std::path::{Path, PathBuf};
@@ -22,93 +23,134 @@ pub fn fixes_en(rec: &Recording) -> Vec<(f64, f64)> {
 
 fn map(rec: &Recording, run: &AidedRun) -> Chart {
     let mut c = Chart {
-        title: "the track, the GNSS fixes (points) and the truth (dashed, when known)".into(),
-        x_label: "east (m)".into(),
-        y_label: "north (m)".into(),
+        title: "the track, the GNSS fixes and the truth (when known)".into(),
+        x_label: "east [m]".into(),
+        y_label: "north [m]".into(),
+        equal_scale: true,
         ..Chart::default()
     };
-    let truth = rec
-        .moving
-        .as_ref()
-        .and_then(|m| m.truth.as_deref())
-        .unwrap_or(&[]);
+    let truth = truth(rec);
     if !truth.is_empty() {
-        let mut t = Series::line(
-            "truth",
-            truth
+        c.series.push(
+            Series::line(
+                "truth",
+                truth
+                    .iter()
+                    .step_by(STEP)
+                    .map(|r| (r.p_n_m[1], r.p_n_m[0]))
+                    .collect(),
+            )
+            .with_dash(Dash::Dashed),
+        );
+    }
+    c.series.push(Series::points("GNSS fixes", fixes_en(rec)));
+    c.series.push(
+        Series::line(
+            "navigation",
+            run.rows
                 .iter()
                 .step_by(STEP)
-                .map(|r| (r.p_n_m[1], r.p_n_m[0]))
+                .map(|r| (r.traj.ned_m[1], r.traj.ned_m[0]))
                 .collect(),
-        );
-        t.dashed = true;
-        c.series.push(t);
-    }
-    let mut g = Series::line("GNSS fixes", fixes_en(rec));
-    g.markers = true;
-    c.series.push(g);
-    c.series.push(Series::line(
-        "navigation",
-        run.rows
-            .iter()
-            .step_by(STEP)
-            .map(|r| (r.traj.ned_m[1], r.traj.ned_m[0]))
-            .collect(),
-    ));
+        )
+        .with_dash(Dash::Solid),
+    );
     c
 }
 
-fn error(rec: &Recording, run: &AidedRun) -> Chart {
-    let truth = rec
-        .moving
+/// The recording's truth, when it has one.
+fn truth(rec: &Recording) -> &[recording::moving::TruthRow] {
+    rec.moving
         .as_ref()
         .and_then(|m| m.truth.as_deref())
-        .unwrap_or(&[]);
-    let mut c = Chart {
-        title: "horizontal error against the truth and the filter's 3-sigma (m)".into(),
-        x_label: "time (s)".into(),
-        y_label: "m".into(),
-        log_y: true,
-        ..Chart::default()
+        .unwrap_or(&[])
+}
+
+/// Intervals without a fix the filter used, longer than three times the
+/// usual interval between fixes (and 1 s): outages cut in, and the
+/// receiver's own gaps.
+pub fn fixless(run: &AidedRun) -> Vec<(f64, f64)> {
+    let t: Vec<f64> = run.nis.iter().map(|(t, ..)| *t).collect();
+    let mut gaps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let usual: f64 = if gaps.is_empty() {
+        1.0
+    } else {
+        core_nav::stats::median(&mut gaps)
     };
-    let err: Vec<(f64, f64)> = run
-        .rows
-        .iter()
-        .step_by(STEP)
-        .filter_map(|r| {
-            let t = recording::moving::truth_at(truth, r.traj.t_s)?;
-            Some((
-                r.traj.t_s,
-                (r.traj.ned_m[0] - t.p_n_m[0]).hypot(r.traj.ned_m[1] - t.p_n_m[1]),
-            ))
-        })
-        .collect();
-    if !err.is_empty() {
-        c.series.push(Series::line("error", err));
-    }
-    let mut sig = Series::line(
-        "3-sigma",
+    t.windows(2)
+        .filter(|w| w[1] - w[0] > (3.0 * usual).max(1.0))
+        .map(|w| (w[0], w[1]))
+        .collect()
+}
+
+/// The north (`k` = 0) or east (1) error with the filter's +-3 sigma as a
+/// band: against the truth each half second, or, without one, against
+/// each GNSS fix (the fixes' own error included).
+fn axis_error(rec: &Recording, run: &AidedRun, k: usize) -> Series {
+    let truth = truth(rec);
+    let at = |r: &AidedRow, p: [f64; 3]| (r.traj.t_s, r.traj.ned_m[k] - p[k], 3.0 * r.sigma_p_m[k]);
+    let pts: Vec<(f64, f64, f64)> = if truth.is_empty() {
+        let rows = &run.rows;
+        super::summary::receiver_reference(rec)
+            .iter()
+            .filter_map(|f| {
+                let i = rows.partition_point(|r| r.traj.t_s < f.t_s);
+                let r = rows.get(i)?;
+                ((r.traj.t_s - f.t_s).abs() < 0.05).then(|| at(r, f.p_n_m))
+            })
+            .collect()
+    } else {
         run.rows
             .iter()
             .step_by(STEP)
-            .map(|r| (r.traj.t_s, 3.0 * r.sigma_p_m[0].hypot(r.sigma_p_m[1])))
-            .collect(),
+            .filter_map(|r| Some(at(r, recording::moving::truth_at(truth, r.traj.t_s)?.p_n_m)))
+            .collect()
+    };
+    let what = if truth.is_empty() {
+        "navigation - GNSS fix"
+    } else {
+        "error against the truth"
+    };
+    let mut s = Series::line(
+        format!("{what} (band: the filter's +-3 sigma)"),
+        pts.iter().map(|(t, e, _)| (*t, *e)).collect(),
     );
-    sig.dashed = true;
-    c.series.push(sig);
-    c
+    s.markers = truth.is_empty();
+    s.band = Some(pts.iter().map(|(_, _, b)| (-b, *b)).collect());
+    s
+}
+
+fn error(rec: &Recording, run: &AidedRun) -> Vec<Chart> {
+    ["north", "east"]
+        .iter()
+        .enumerate()
+        .map(|(k, axis)| Chart {
+            title: format!("{axis} position error and the filter's 3-sigma"),
+            x_label: "time [s]".into(),
+            y_label: format!("{axis} error [m]"),
+            shaded: fixless(run),
+            shaded_label: "no GNSS fix used".into(),
+            series: vec![axis_error(rec, run, k)],
+            ..Chart::default()
+        })
+        .collect()
 }
 
 fn consistency(run: &AidedRun) -> Chart {
     let mut c = Chart {
-        title: "consistency: NEES (against the truth, each second) and NIS (each fix) per degree of freedom; 1 is honest".into(),
-        x_label: "time (s)".into(),
-        y_label: "per degree of freedom".into(),
+        title: "consistency per degree of freedom: 1 is honest".into(),
+        x_label: "time [s]".into(),
+        y_label: "NEES or NIS per degree of freedom [1]".into(),
         log_y: true,
+        // A filter that starts pessimistic has a NEES of 1e-5 at first;
+        // the two decades either side of 1 are what a reader judges.
+        y_floor: Some(1e-2),
+        shaded: fixless(run),
+        shaded_label: "no GNSS fix used".into(),
         ..Chart::default()
     };
     let mut nis = Series::line(
-        "NIS",
+        "NIS (each fix used)",
         run.nis
             .iter()
             .filter(|(_, _, n)| *n > 0)
@@ -119,7 +161,7 @@ fn consistency(run: &AidedRun) -> Chart {
     c.series.push(nis);
     if !run.nees.is_empty() {
         c.series.push(Series::line(
-            "NEES",
+            "NEES (against the truth, each second)",
             run.nees
                 .iter()
                 .map(|(t, v, n)| (*t, v / *n as f64))
@@ -129,14 +171,17 @@ fn consistency(run: &AidedRun) -> Chart {
     c
 }
 
-/// Writes `map`, `horizontal_error` and `consistency` (SVG and PNG) into
+/// Writes `map`, `position_error` and `consistency` (SVG and PNG) into
 /// `dir`; returns the files.
 ///
 /// # Errors
 /// A plot that cannot be drawn or written.
 pub fn plots(rec: &Recording, run: &AidedRun, dir: &Path) -> Result<Vec<PathBuf>> {
     let mut out = Figure::one(map(rec, run)).write(&dir.join("map"))?;
-    out.extend(Figure::one(error(rec, run)).write(&dir.join("horizontal_error"))?);
+    let errors = Figure {
+        charts: error(rec, run),
+    };
+    out.extend(errors.write(&dir.join("position_error"))?);
     out.extend(Figure::one(consistency(run)).write(&dir.join("consistency"))?);
     Ok(out)
 }

@@ -14,9 +14,9 @@ pub struct Args {
     /// Write the rins-allan/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
-    /// Write the plot here (SVG, and PNG beside it with the same stem).
+    /// Write the plot (`allan.svg` and `allan.png`) into this directory.
     #[arg(long)]
-    pub plot: Option<PathBuf>,
+    pub plots: Option<PathBuf>,
     /// Write a sensor file (rins-sensor/1) with the measured noise: white
     /// noise, bias instability and its correlation time, rate random walk
     /// (the axes' RMS); the rest (scale, misalignment, ranges...) from
@@ -82,8 +82,9 @@ pub fn run(a: &Args) -> Result<()> {
         write_file(p, &text)?;
         println!("wrote {} (rins-sensor/1: the measured noise)", p.display());
     }
-    if let Some(p) = &a.plot {
-        for f in allan_mod::figure(&chs, &a.rec.display().to_string()).write(p)? {
+    if let Some(d) = &a.plots {
+        let figure = allan_mod::figure(&chs, &a.rec.display().to_string());
+        for f in figure.write(&d.join("allan"))? {
             println!("wrote {}", f.display());
         }
     }

@@ -41,9 +41,10 @@ pub struct Args {
     /// recording against its twin with and without each finding.
     #[arg(long, value_name = "M.toml")]
     pub sim_model: Option<PathBuf>,
-    /// First seed of the twins drawn for `--sim-model`.
-    #[arg(long, default_value_t = 1)]
-    pub twin_seed: u64,
+    /// First seed of the twins drawn for `--sim-model` (the seed, as in
+    /// every command).
+    #[arg(long = "seed", alias = "twin-seed", default_value_t = 1)]
+    pub seed: u64,
     /// Write a sensor file (rins-sensor/1) with what the findings measured
     /// of the sensor (g-sensitivity, scale nonlinearity and asymmetry,
     /// temperature coefficients, latency) on top of --sensor.
@@ -100,7 +101,7 @@ pub fn run(a: &Args) -> Result<()> {
     if let Some(mp) = &a.sim_model {
         let pb = progress_bar("twin");
         let source = format!("rins diagnose {name}");
-        let r = rins::diagnose::twin::report(&d, &rec, &opts.model, &source, a.twin_seed)
+        let r = rins::diagnose::twin::report(&d, &rec, &opts.model, &source, a.seed)
             .map_err(|e| anyhow!("{name}: the twin: {e}"))?;
         pb.finish_and_clear();
         write_file(mp, &r.model.to_toml().map_err(|e| anyhow!("{e}"))?)?;

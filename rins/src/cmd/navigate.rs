@@ -347,7 +347,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     println!("wrote {}", a.out.join("trajectory.csv").display());
     let plots = rins::aided::plots(rec, &run, &a.out)?;
     println!(
-        "wrote {} plots in {} (map, horizontal_error, consistency)",
+        "wrote {} plots in {} (map, position_error, consistency)",
         plots.len(),
         a.out.display()
     );

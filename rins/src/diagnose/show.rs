@@ -2,18 +2,15 @@
 //! (residuals before / after, the table-angle harmonic spectrum, Allan
 //! deviation before / after).
 
-use crate::plot::{Chart, PlotError, Series};
+use crate::plot::{Chart, Figure, PlotError, Series};
 use ::diagnose::{Blocks, Diagnosis, CHANNELS};
+use core_nav::units;
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// Engineering units of a channel's values: (scale from SI, unit).
 fn eng(ch: usize) -> (f64, &'static str) {
-    if ch < 3 {
-        (180.0 / core::f64::consts::PI * 3600.0, "deg/h")
-    } else {
-        (1e6 / 9.806_65, "ug")
-    }
+    units::level(ch < 3)
 }
 
 /// A parameter in engineering units where the name says what it is and
@@ -22,28 +19,27 @@ fn eng(ch: usize) -> (f64, &'static str) {
 /// book's units table: rates deg/h, angle random walk deg/sqrt(h),
 /// forces ug, angles deg and arcsec, lengths mm, times ms.
 fn eng_param(name: &str, v: f64) -> Option<String> {
-    let deg = 180.0 / core::f64::consts::PI;
-    let ug = 1e6 / 9.806_65;
+    let (deg, ug, g) = (units::DEG_PER_RAD, units::UG_PER_MPS2, units::G0_MPS2);
     Some(if name.ends_with("_per_radps") {
         // A rate-squared coefficient (1/(rad/s)): per deg/s.
         format!("{:.4e} per deg/s", v / deg)
     } else if name.ends_with("_per_mps2") && !name.ends_with("radps_per_mps2") {
         // An accelerometer's squared term (1/(m/s^2)): ug per g^2.
-        format!("{:.3} ug/g^2", v * 9.806_65 * ug)
+        format!("{:.3} ug/g^2", v * g * ug)
     } else if name.ends_with("radps_per_mps2") {
-        format!("{:.4} deg/h per g", v * deg * 3600.0 * 9.806_65)
+        format!("{:.4} deg/h per g", v * units::DPH_PER_RADPS * g)
     } else if name.ends_with("radps_per_degc") {
-        format!("{:.4} deg/h per degC", v * deg * 3600.0)
+        format!("{:.4} deg/h per degC", v * units::DPH_PER_RADPS)
     } else if name.ends_with("mps2_per_degc") {
         format!("{:.2} ug per degC", v * ug)
     } else if name.ends_with("_rad_per_sqrt_s") {
-        format!("{:.3} deg/sqrt(h)", v * deg * 60.0)
+        format!("{:.3} deg/sqrt(h)", v * units::DEG_SQRTH_PER_RAD_SQRTS)
     } else if name.ends_with("_mps_per_sqrt_s") {
         format!("{:.2} ug/sqrt(Hz)", v * ug)
     } else if name.ends_with("_rad") {
         format!("{:.4} deg ({:.1} arcsec)", v * deg, v * deg * 3600.0)
     } else if name.ends_with("_radps") {
-        format!("{:.3} deg/h", v * deg * 3600.0)
+        format!("{:.3} deg/h", v * units::DPH_PER_RADPS)
     } else if name.ends_with("_mps2") {
         format!("{:.1} ug", v * ug)
     } else if name.ends_with("_m") {
@@ -287,128 +283,139 @@ pub fn model_adev(n: &::diagnose::noise::Noise, tau: f64) -> f64 {
     (white + gm.max(0.0)).sqrt()
 }
 
-/// Writes the plots into `dir`; returns the files written.
+/// Writes the plots into `dir`; returns the files written: per triad the
+/// residuals' 1 s means and their Allan deviation (one chart per axis:
+/// the nominal model's residual, the residual with the findings, and the
+/// fitted noise model), and the harmonic spectrum against the table angle
+/// (one chart per triad: each in its own unit).
 ///
 /// # Errors
 /// The directory or a file cannot be written.
 pub fn plots(d: &Diagnosis, dir: &Path) -> Result<Vec<std::path::PathBuf>, PlotError> {
     let det = &d.details;
     let mut out = vec![];
+    for (triad, label) in [(0usize, "gyro"), (1, "accel")] {
+        let chs = 3 * triad..3 * triad + 3;
+        let residuals = chs.clone().map(|ch| residual_chart(d, ch)).collect();
+        out.extend(Figure { charts: residuals }.write(&dir.join(format!("residual_{label}")))?);
+        let allan = chs.map(|ch| allan_chart(d, ch)).collect();
+        out.extend(Figure { charts: allan }.write(&dir.join(format!("allan_{label}")))?);
+    }
+    let span = det.theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        - det.theta.iter().copied().fold(f64::INFINITY, f64::min);
+    if span >= 0.999 * core::f64::consts::TAU {
+        let charts = harmonic_charts(d);
+        out.extend(Figure { charts }.write(&dir.join("harmonics"))?);
+    }
+    Ok(out)
+}
+
+/// The residual of channel `ch` in 1 s means, before and after.
+fn residual_chart(d: &Diagnosis, ch: usize) -> Chart {
+    let det = &d.details;
     let bl = Blocks::new(
         &det.t_s,
         det.dt_s,
         ((1.0 / det.dt_s.max(1e-9)).round() as usize).max(1),
     );
     let tb: Vec<f64> = bl.mean(&det.t_s);
-    for (triad, label) in [(0usize, "gyro"), (1, "accel")] {
-        // Residuals before / after, 1 s means.
-        let mut c = Chart {
-            title: format!("{label} residual, 1 s means: nominal model vs with the findings"),
-            x_label: "time (s)".into(),
-            y_label: if triad == 0 {
-                "deg/h".into()
-            } else {
-                "ug".into()
-            },
-            ..Chart::default()
-        };
-        for i in 0..3 {
-            let ch = 3 * triad + i;
-            let (s, _) = eng(ch);
-            for (which, res, dashed) in [
-                ("nominal", &det.res_before[ch], false),
-                ("after", &det.res_after[ch], true),
-            ] {
-                let b = bl.mean(res);
-                let mut se = Series::line(
-                    format!("{} {which}", CHANNELS[ch]),
-                    tb.iter().zip(&b).map(|(t, v)| (*t, v * s)).collect(),
-                );
-                se.dashed = dashed;
-                c.series.push(se);
-            }
-        }
-        out.extend(c.write(&dir.join(format!("residual_{label}")))?);
-        // Allan deviation before / after.
-        let mut a = Chart {
-            title: format!("{label} residual: Allan deviation before / after"),
-            x_label: "tau (s)".into(),
-            y_label: if triad == 0 {
-                "deg/h".into()
-            } else {
-                "ug".into()
-            },
-            log_x: true,
-            log_y: true,
-            ..Chart::default()
-        };
-        for i in 0..3 {
-            let ch = 3 * triad + i;
-            let (s, _) = eng(ch);
-            for (which, res, dashed) in [
-                ("nominal", &det.res_before[ch], false),
-                ("after", &det.res_after[ch], true),
-            ] {
-                let pts: Vec<(f64, f64)> = core_nav::allan::octave_factors(res.len(), 20)
-                    .filter_map(|m| core_nav::allan::oadev(res, det.dt_s, m))
-                    .filter(|p| p.adev > 0.0)
-                    .map(|p| (p.tau_s, p.adev * s))
-                    .collect();
-                let taus: Vec<f64> = pts.iter().map(|p| p.0).collect();
-                let mut se = Series::line(format!("{} {which}", CHANNELS[ch]), pts);
-                se.dashed = dashed;
-                a.series.push(se);
-                if which == "after" {
-                    if let Some(n) = det.noise.get(ch) {
-                        let mut m = Series::line(
-                            format!("{} noise model", CHANNELS[ch]),
-                            taus.iter().map(|t| (*t, model_adev(n, *t) * s)).collect(),
-                        );
-                        m.markers = true;
-                        a.series.push(m);
-                    }
+    let (s, unit) = eng(ch);
+    let series = [
+        ("nominal model", &det.res_before[ch]),
+        ("with the findings", &det.res_after[ch]),
+    ]
+    .into_iter()
+    .map(|(which, res)| {
+        let b = bl.mean(res);
+        Series::line(which, tb.iter().zip(&b).map(|(t, v)| (*t, v * s)).collect())
+    })
+    .collect();
+    Chart {
+        title: format!("{}: residual, 1 s means", CHANNELS[ch]),
+        x_label: "time [s]".into(),
+        y_label: format!("residual [{unit}]"),
+        series,
+        ..Chart::default()
+    }
+}
+
+/// The Allan deviation of channel `ch`'s residual, before and after, and
+/// the noise model fitted to it.
+fn allan_chart(d: &Diagnosis, ch: usize) -> Chart {
+    let det = &d.details;
+    let (s, unit) = eng(ch);
+    let mut series = vec![];
+    let mut taus = vec![];
+    for (which, res) in [
+        ("nominal model", &det.res_before[ch]),
+        ("with the findings", &det.res_after[ch]),
+    ] {
+        let pts: Vec<(f64, f64)> = core_nav::allan::octave_factors(res.len(), 20)
+            .filter_map(|m| core_nav::allan::oadev(res, det.dt_s, m))
+            .filter(|p| p.adev > 0.0)
+            .map(|p| (p.tau_s, p.adev * s))
+            .collect();
+        taus = pts.iter().map(|p| p.0).collect();
+        series.push(Series::line(which, pts));
+    }
+    if let Some(n) = det.noise.get(ch) {
+        series.push(Series::points(
+            "fitted noise model",
+            taus.iter().map(|t| (*t, model_adev(n, *t) * s)).collect(),
+        ));
+    }
+    Chart {
+        title: format!("{}: residual's Allan deviation", CHANNELS[ch]),
+        x_label: "averaging time tau [s]".into(),
+        y_label: format!("Allan deviation [{unit}]"),
+        log_x: true,
+        log_y: true,
+        series,
+        ..Chart::default()
+    }
+}
+
+/// The residuals' amplitude at each harmonic of the table angle, before
+/// (filled) and after (hollow): one chart per triad, each in its unit.
+fn harmonic_charts(d: &Diagnosis) -> Vec<Chart> {
+    let det = &d.details;
+    let refs: Vec<&[f64]> = det
+        .res_before
+        .iter()
+        .chain(det.res_after.iter())
+        .map(Vec::as_slice)
+        .collect();
+    let all = super::locate::harmonics_all(&refs, &det.theta, super::locate::HARMONICS);
+    [(0usize, "gyro"), (1, "accel")]
+        .into_iter()
+        .map(|(triad, label)| {
+            let mut series = vec![];
+            for ch in 3 * triad..3 * triad + 3 {
+                let (s, _) = eng(ch);
+                for (which, a, hollow) in
+                    [("nominal", &all[ch], false), ("after", &all[6 + ch], true)]
+                {
+                    let mut se = Series::points(
+                        format!("{} {which}", CHANNELS[ch]),
+                        a.iter()
+                            .enumerate()
+                            .map(|(k, v)| ((k + 1) as f64, v * s))
+                            .collect(),
+                    );
+                    se.hollow = hollow;
+                    series.push(se);
                 }
             }
-        }
-        out.extend(a.write(&dir.join(format!("allan_{label}")))?);
-    }
-    // Harmonic spectrum against the table angle, before / after.
-    let span = det.theta.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-        - det.theta.iter().copied().fold(f64::INFINITY, f64::min);
-    if span >= 0.999 * core::f64::consts::TAU {
-        let mut h = Chart {
-            title: "residual against the table angle: harmonic amplitudes (deg/h, ug)".into(),
-            x_label: "harmonic (cycles per revolution)".into(),
-            y_label: "amplitude".into(),
-            log_y: true,
-            ..Chart::default()
-        };
-        let refs: Vec<&[f64]> = det
-            .res_before
-            .iter()
-            .chain(det.res_after.iter())
-            .map(Vec::as_slice)
-            .collect();
-        let all = super::locate::harmonics_all(&refs, &det.theta, super::locate::HARMONICS);
-        for (ch, name) in CHANNELS.iter().enumerate() {
-            let (s, _) = eng(ch);
-            for (which, a, dashed) in [("nominal", &all[ch], false), ("after", &all[6 + ch], true)]
-            {
-                let mut se = Series::line(
-                    format!("{name} {which}"),
-                    a.iter()
-                        .enumerate()
-                        .map(|(k, v)| ((k + 1) as f64, (v * s).max(1e-6)))
-                        .collect(),
-                );
-                se.markers = true;
-                se.dashed = dashed;
-                h.series.push(se);
+            Chart {
+                title: format!("{label} residual against the table angle: harmonic amplitudes"),
+                x_label: "harmonic [cycles per revolution]".into(),
+                y_label: format!("amplitude [{}]", eng(3 * triad).1),
+                log_y: true,
+                series,
+                ..Chart::default()
             }
-        }
-        out.extend(h.write(&dir.join("harmonics"))?);
-    }
-    Ok(out)
+        })
+        .collect()
 }
 
 #[cfg(test)]

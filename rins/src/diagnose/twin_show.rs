@@ -50,13 +50,7 @@ pub fn text(r: &TwinReport) -> String {
         "  (recording-to-twin over twin-to-twin rms of 1 s means; good at <= {GOOD_RATIO})\n"
     ));
     s.push_str("  the recording minus the noise-free twin, rms of 0.2 s means by motion (deg/h gyro, ug accel):\n");
-    let eng = |ch: usize, v: f64| {
-        if ch < 3 {
-            v.to_degrees() * 3600.0
-        } else {
-            v / 9.806_65e-6
-        }
-    };
+    let eng = |ch: usize, v: f64| v * core_nav::units::level(ch < 3).0;
     for run in &r.runs {
         for (k, (label, v, n)) in run.residuals.by_part.iter().enumerate() {
             s.push_str(&format!(
@@ -91,45 +85,41 @@ pub fn plots(
     r: &TwinReport,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>, crate::plot::PlotError> {
-    use crate::plot::{Chart, Series};
+    use crate::plot::{Chart, Figure, Series};
     let mut out = vec![];
-    for (triad, label, unit, scale) in [
-        (
-            0usize,
-            "gyro",
-            "deg/h",
-            180.0 / std::f64::consts::PI * 3600.0,
-        ),
-        (1, "accel", "ug", 1.0 / 9.806_65e-6),
-    ] {
-        let mut c = Chart {
-            title: format!(
-                "{label}: recording minus its twin, Allan deviation (with / without each finding)"
-            ),
-            x_label: "tau (s)".into(),
-            y_label: unit.into(),
-            log_x: true,
-            log_y: true,
-            ..Chart::default()
-        };
-        for i in 0..3 {
-            let ch = 3 * triad + i;
-            for (k, run) in r.runs.iter().enumerate() {
-                let pts: Vec<(f64, f64)> = run
-                    .residuals
-                    .allan
-                    .get(ch)
-                    .map(|v| v.iter().map(|(t, a)| (*t, a * scale)).collect())
-                    .unwrap_or_default();
-                if pts.is_empty() {
-                    continue;
+    for (triad, label) in [(0usize, "gyro"), (1, "accel")] {
+        let (scale, unit) = core_nav::units::level(triad == 0);
+        // One chart per axis, one series per twin (with / without each
+        // finding): a handful of lines a chart, not fifteen.
+        let charts = (0..3)
+            .map(|i| {
+                let ch = 3 * triad + i;
+                let series = r
+                    .runs
+                    .iter()
+                    .filter_map(|run| {
+                        let v = run.residuals.allan.get(ch).filter(|v| !v.is_empty())?;
+                        Some(Series::line(
+                            run.label.clone(),
+                            v.iter().map(|(t, a)| (*t, a * scale)).collect(),
+                        ))
+                    })
+                    .collect();
+                Chart {
+                    title: format!(
+                        "{}: recording minus its twin, Allan deviation (with / without each finding)",
+                        CHANNELS[ch]
+                    ),
+                    x_label: "averaging time tau [s]".into(),
+                    y_label: format!("Allan deviation [{unit}]"),
+                    log_x: true,
+                    log_y: true,
+                    series,
+                    ..Chart::default()
                 }
-                let mut se = Series::line(format!("{} {}", CHANNELS[ch], run.label), pts);
-                se.dashed = k > 0;
-                c.series.push(se);
-            }
-        }
-        out.extend(c.write(&dir.join(format!("twin_allan_{label}")))?);
+            })
+            .collect();
+        out.extend(Figure { charts }.write(&dir.join(format!("twin_allan_{label}")))?);
     }
     Ok(out)
 }
