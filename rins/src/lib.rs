@@ -21,6 +21,7 @@ pub mod qemu_replay;
 pub mod record;
 pub mod report;
 pub mod reproduce;
+pub mod results;
 pub mod ubx;
 
 /// A job's progress, measured in thousandths: on a terminal a bar with

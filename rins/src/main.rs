@@ -34,6 +34,9 @@ enum Tool {
     /// The aided rotary INS through GNSS outages: Monte Carlo of simulated
     /// drives, rotary against conventional, per sensor.
     Outages(cmd::outages::Args),
+    /// Regenerate the book's result tables (reproduce, outages, study) from
+    /// their runs, stamped with the date and commit.
+    Results(cmd::results::Args),
     /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
     QemuReplay(cmd::qemu_replay::Args),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
@@ -78,5 +81,6 @@ fn main() -> Result<()> {
         Tool::Diagnose(a) => cmd::diagnose::run(&a),
         Tool::Study(a) => cmd::study::run(&a),
         Tool::Outages(a) => cmd::outages::run(&a),
+        Tool::Results(a) => cmd::results::run(&a),
     }
 }

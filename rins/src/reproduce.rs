@@ -372,3 +372,58 @@ pub fn text_report(rows: &[Row], imu: &str, runs: usize) -> String {
     }
     o
 }
+
+/// The book's table for one sensor: per mode the mean over the rates of
+/// the horizontal position and velocity RMS, the runs' spread over the
+/// rates' cells (lowest and highest cell mean), and the paper's figures.
+pub fn markdown(rows: &[Row], imu: &str) -> String {
+    use std::fmt::Write;
+    let mut o = format!(
+        "| {imu} | h. position [m] | h. velocity [m/s] | cells' range, position [m] | paper |\n| --- | --- | --- | --- | --- |\n"
+    );
+    for mode in [
+        "conventional",
+        "rotary-partial",
+        "rotary-full",
+        "rotary-best",
+        "noise-floor",
+    ] {
+        let Some((p, v)) = mode_mean(rows, mode) else {
+            continue;
+        };
+        let cells: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.mode == mode)
+            .map(|r| r.h_pos_rms_m)
+            .collect();
+        let (lo, hi) = cells
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(*x), b.max(*x))
+            });
+        let paper = match PAPER.iter().find(|(i, m, ..)| *i == imu && *m == mode) {
+            Some((_, _, pp, pv)) => format!("{pp} m / {pv} m/s"),
+            None if mode == "conventional" => "\"several km after 5 min\"".into(),
+            None => String::new(),
+        };
+        let _ = writeln!(
+            o,
+            "| {mode} | {} | {} | {} - {} | {paper} |",
+            sig(p),
+            sig(v),
+            sig(lo),
+            sig(hi)
+        );
+    }
+    o
+}
+
+/// Four significant figures at most, no more than one decimal above 100.
+fn sig(x: f64) -> String {
+    match x.abs() {
+        a if a >= 100.0 => format!("{x:.0}"),
+        a if a >= 10.0 => format!("{x:.1}"),
+        a if a >= 1.0 => format!("{x:.2}"),
+        _ => format!("{x:.3}"),
+    }
+}

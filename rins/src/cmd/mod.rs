@@ -12,6 +12,7 @@ pub mod outages;
 pub mod qemu_replay;
 pub mod record;
 pub mod reproduce;
+pub mod results;
 pub mod simulate;
 pub mod study;
 
@@ -19,6 +20,19 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::ValueEnum;
 use recording::Recording;
 use std::path::Path;
+
+/// The shared data directory: `$RINS_DATA`, default `../shared/data`.
+pub fn shared_data() -> std::path::PathBuf {
+    std::env::var_os("RINS_DATA").map_or_else(
+        || std::path::PathBuf::from("../shared/data"),
+        std::path::PathBuf::from,
+    )
+}
+
+/// The machine's cores (1 when unknown): the default thread count.
+pub fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, std::num::NonZero::get)
+}
 
 /// Table axis.
 #[derive(Clone, Copy, Debug, ValueEnum)]

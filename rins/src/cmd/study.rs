@@ -49,14 +49,10 @@ pub struct Args {
 /// Runs `rins study`.
 pub fn run(a: &Args) -> Result<()> {
     let pb = progress_bar("study");
-    let threads = a
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = a.threads.unwrap_or_else(super::cores);
     let real = if a.real_noise || a.real_noise_file.is_some() {
         let path = a.real_noise_file.clone().unwrap_or_else(|| {
-            std::env::var_os("RINS_DATA")
-                .map_or_else(|| PathBuf::from("../shared/data"), PathBuf::from)
-                .join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")
+            super::shared_data().join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")
         });
         Some(Arc::new(RealNoise::adis16405(&path)?))
     } else {

@@ -1,0 +1,141 @@
+//! `rins results`: regenerate the book's result tables ([`rins::results`]).
+
+use super::write_file;
+use anyhow::{anyhow, Result};
+use hal_sim::drive::DriveKind;
+use rins::realnoise::RealNoise;
+use rins::results::{self, Setting};
+use rins::{progress_bar, reproduce as repro};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// `rins results`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Write the tables (markdown, one file each) into this directory.
+    #[arg(long, default_value = "docs/src/results")]
+    pub out: PathBuf,
+    /// The small setting: every table made in minutes, with too few runs
+    /// for its figures (CI's check that the command still works).
+    #[arg(long)]
+    pub small: bool,
+    /// Threads (default: the machine's cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Runs `rins results`.
+pub fn run(a: &Args) -> Result<()> {
+    let set = if a.small {
+        results::SMALL
+    } else {
+        results::BOOK
+    };
+    let threads = a.threads.unwrap_or_else(super::cores);
+    let (date, commit) = (results::today(), results::commit());
+    let write = |name: &str, command: String, body: String| -> Result<()> {
+        let p = a.out.join(name);
+        let source = if name.contains("real-noise") {
+            "Our simulator's runs on the real ADIS16405 bench noise."
+        } else {
+            "Our own simulator only."
+        };
+        let stamp = results::stamp(&command, source, &set, &date, &commit);
+        write_file(&p, &(stamp + &body))?;
+        println!("wrote {}", p.display());
+        Ok(())
+    };
+    for sensor in ["nav440", "mtig"] {
+        let (cmd, body) = reproduce(sensor, &set)?;
+        write(&format!("reproduce-{sensor}.md"), cmd, body)?;
+    }
+    for kind in [DriveKind::City, DriveKind::Highway] {
+        let (cmd, body) = outages(kind, &set, threads)?;
+        write(&format!("outages-{}.md", kind.name()), cmd, body)?;
+    }
+    let (cmd, body) = study(&["nav440", "mtig"], None, &set, threads)?;
+    write("study.md", cmd, body)?;
+    match real_noise() {
+        Ok(real) => {
+            let grades = ["adis16405", "adis16405+real"];
+            let (cmd, body) = study(&grades, Some(real), &set, threads)?;
+            write("study-real-noise.md", cmd, body)?;
+        }
+        Err(e) => println!(
+            "study-real-noise.md not generated (left as it was): {e:#}; set RINS_DATA to the shared data directory"
+        ),
+    }
+    Ok(())
+}
+
+fn reproduce(sensor: &str, set: &Setting) -> Result<(String, String)> {
+    let spec = hal_sim::sensor::resolve(sensor)?;
+    let pb = progress_bar(&format!("reproduce {sensor}"));
+    let rows = repro::reproduce(&spec, set.reproduce_runs, 1, &repro::RATES_DPS, &mut |f| {
+        pb.set_position((f * 1000.0) as u64)
+    })?;
+    pb.finish_and_clear();
+    let cmd = format!(
+        "rins reproduce --sensor {sensor} --runs {}",
+        set.reproduce_runs
+    );
+    Ok((cmd, repro::markdown(&rows, sensor)))
+}
+
+fn outages(kind: DriveKind, set: &Setting, threads: usize) -> Result<(String, String)> {
+    let imus = ["nav440", "icm42688"]
+        .iter()
+        .map(|n| Ok(hal_sim::sensor::resolve(n)?))
+        .collect::<Result<Vec<_>>>()?;
+    let pb = progress_bar(&format!("outages {}", kind.name()));
+    let s = rins::outages::run(kind, &imus, set.outage_drives, threads, &|f| {
+        pb.set_position((f * 1000.0) as u64)
+    })?;
+    pb.finish_and_clear();
+    let cmd = format!(
+        "rins outages --drive {} --drives {}",
+        kind.name(),
+        set.outage_drives
+    );
+    Ok((cmd, s.markdown()))
+}
+
+fn study(
+    names: &[&str],
+    real: Option<Arc<RealNoise>>,
+    set: &Setting,
+    threads: usize,
+) -> Result<(String, String)> {
+    let grades = names
+        .iter()
+        .map(|n| rins::study::grade(n, real.as_ref()))
+        .collect::<Result<Vec<_>, _>>()?;
+    let pb = progress_bar("study");
+    let s = rins::study::run(
+        &grades,
+        &rins::study::effects(),
+        set.study_runs,
+        set.study_nulls,
+        1,
+        threads,
+        &|f| pb.set_position((f * 1000.0) as u64),
+    )?;
+    pb.finish_and_clear();
+    let real_flag = if real.is_some() { " --real-noise" } else { "" };
+    let cmd = format!(
+        "rins study --sensor {}{real_flag} --runs {} --nulls {}",
+        names.join(","),
+        set.study_runs,
+        set.study_nulls
+    );
+    Ok((cmd, rins::study::markdown(&s)))
+}
+
+/// The ADIS16405 bench hours, from the shared data directory.
+fn real_noise() -> Result<Arc<RealNoise>> {
+    let p = super::shared_data().join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin");
+    if !Path::new(&p).is_file() {
+        return Err(anyhow!("{} not found", p.display()));
+    }
+    Ok(Arc::new(RealNoise::adis16405(&p)?))
+}
