@@ -103,7 +103,7 @@ pub struct Chart {
     /// One unit is as long on both axes (a map).
     pub equal_scale: bool,
     /// The lowest value a log y axis shows (default: six decades below
-    /// its highest); lower values are drawn at the axis.
+    /// its highest); lower values run off the bottom of the plot.
     pub y_floor: Option<f64>,
     /// x intervals shaded from top to bottom (e.g. GNSS outages).
     pub shaded: Vec<(f64, f64)>,

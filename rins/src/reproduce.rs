@@ -374,12 +374,13 @@ pub fn text_report(rows: &[Row], imu: &str, runs: usize) -> String {
 }
 
 /// The book's table for one sensor: per mode the mean over the rates of
-/// the horizontal position and velocity RMS, the runs' spread over the
-/// rates' cells (lowest and highest cell mean), and the paper's figures.
+/// the horizontal position and velocity RMS, the runs' spread (the lowest
+/// and the highest single run's position RMS, any rate), and the paper's
+/// figures.
 pub fn markdown(rows: &[Row], imu: &str) -> String {
     use std::fmt::Write;
     let mut o = format!(
-        "| {imu} | h. position [m] | h. velocity [m/s] | cells' range, position [m] | paper |\n| --- | --- | --- | --- | --- |\n"
+        "| {imu} | h. position [m] | h. velocity [m/s] | runs' range, position [m] | paper |\n| --- | --- | --- | --- | --- |\n"
     );
     for mode in [
         "conventional",
@@ -394,7 +395,7 @@ pub fn markdown(rows: &[Row], imu: &str) -> String {
         let cells: Vec<f64> = rows
             .iter()
             .filter(|r| r.mode == mode)
-            .map(|r| r.h_pos_rms_m)
+            .flat_map(|r| r.runs.iter().map(|e| e.h_pos_rms_m))
             .collect();
         let (lo, hi) = cells
             .iter()

@@ -1,7 +1,7 @@
 //! What a newcomer types: negative numbers as values, and contradictory or
 //! non-chaining flags refused with the reason and the flag that fixes it.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn rins(args: &[&str]) -> Output {
@@ -116,4 +116,59 @@ fn a_moving_base_without_gnss_and_a_foreign_demo_directory_are_refused() {
     refused(&rins(&["demo", "--out", r]), &["--out"]);
     assert!(rec.join("imu.csv").exists());
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// The book's real-walk commands (`docs/src/aided.md`), as written: the
+/// import of the RTKLIB solution and the IMU CSV, then the aided
+/// navigation with two outages.
+#[test]
+fn the_books_real_walk_commands_run_as_written() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = tmp("walk");
+    let (rec, nav) = (dir.join("walk"), dir.join("walk-nav"));
+    let data = root.join("tests/data/gnss_imu_walk_0827");
+    let d = |f: &str| data.join(f).to_string_lossy().to_string();
+    let o = rins(&[
+        "import",
+        "rtklib",
+        "--pos",
+        &d("gnss_1730_sf.pos"),
+        "--imu-file",
+        &d("imu_1730.csv"),
+        "--columns",
+        &d("columns.toml"),
+        "--sensor",
+        &d("sensor.toml"),
+        "--geoid-m",
+        "-21.39",
+        "--out",
+        &rec.to_string_lossy(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = rins(&[
+        "navigate",
+        &rec.to_string_lossy(),
+        "--gnss",
+        "--sensor",
+        "icm42605",
+        "--gnss-outage",
+        "20:10",
+        "--gnss-outage",
+        "45:10",
+        "--out",
+        &nav.to_string_lossy(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "trajectory.csv",
+        "map.png",
+        "position_error.png",
+        "consistency.png",
+    ] {
+        assert!(nav.join(f).is_file(), "{f} missing");
+    }
+    // The book's command in the chapter is the one run here.
+    let book = std::fs::read_to_string(root.join("docs/src/aided.md")).unwrap();
+    assert!(book.contains("--imu-file tests/data/gnss_imu_walk_0827/imu_1730.csv"));
+    let _ = std::fs::remove_dir_all(&dir);
 }

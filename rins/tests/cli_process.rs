@@ -24,7 +24,7 @@ fn calibrate_navigate_allan_on_a_simulated_run() {
     let s = |p: &Path| p.to_str().unwrap().to_string();
     ok(&rins(&[
         "simulate",
-        "--imu",
+        "--sensor",
         "nav440",
         "--rate-dps",
         "30",
@@ -171,7 +171,7 @@ fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run
         "simulate",
         "--drive",
         "city",
-        "--imu",
+        "--sensor",
         "icm42688",
         "--duration-s",
         "30",

@@ -13,7 +13,7 @@ fn simulate_with_every_named_flag_writes_a_recording() {
     let st = rins()
         .args([
             "simulate",
-            "--imu",
+            "--sensor",
             "nav440",
             "--scheme",
             "reciprocating",
@@ -72,7 +72,7 @@ fn bad_input_gets_a_clear_error() {
         ),
         (
             // The old flag name stays as a hidden alias.
-            vec!["simulate", "--imu", "nope", "--out", "/tmp/x"],
+            vec!["simulate", "--sensor", "nope", "--out", "/tmp/x"],
             "neither a shipped sensor",
         ),
         (

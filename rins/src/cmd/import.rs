@@ -28,7 +28,7 @@ pub enum From {
 pub struct KfGinsArgs {
     /// The IMU file (seconds of week, dtheta xyz rad, dv xyz m/s).
     #[arg(long)]
-    pub imu: PathBuf,
+    pub imu_file: PathBuf,
     /// The GNSS file (seconds of week, lat, lon, h, sigma n e d; or 13
     /// columns with velocity).
     #[arg(long)]
@@ -55,7 +55,7 @@ pub struct RtklibArgs {
     pub pos: PathBuf,
     /// The IMU CSV.
     #[arg(long)]
-    pub imu: PathBuf,
+    pub imu_file: PathBuf,
     /// The IMU CSV's column map (rins-columns/1, TOML).
     #[arg(long)]
     pub columns: PathBuf,
@@ -94,7 +94,7 @@ fn kf_gins(a: &KfGinsArgs) -> Result<()> {
         );
     }
     let input = import::kfgins::KfGinsInput {
-        imu: a.imu.clone(),
+        imu: a.imu_file.clone(),
         gnss: a.gnss.clone(),
         truth: a.truth.clone(),
         sensor: hal_sim::sensor::resolve(&a.sensor)?,
@@ -129,7 +129,7 @@ fn rtklib(a: &RtklibArgs) -> Result<()> {
     }
     let input = RtklibInput {
         pos: a.pos.clone(),
-        imu: a.imu.clone(),
+        imu: a.imu_file.clone(),
         columns: a.columns.clone(),
         imu_tag: a.imu_tag.clone(),
         geoid_m: a.geoid_m,

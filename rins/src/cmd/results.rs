@@ -22,7 +22,14 @@ pub struct Args {
     /// Threads (default: the machine's cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Only these tables (comma-separated: reproduce, outages, study,
+    /// study-real-noise); default: all.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Option<Vec<String>>,
 }
+
+/// The tables, by the names `--only` takes.
+const TABLES: [&str; 4] = ["reproduce", "outages", "study", "study-real-noise"];
 
 /// Runs `rins results`.
 pub fn run(a: &Args) -> Result<()> {
@@ -31,6 +38,15 @@ pub fn run(a: &Args) -> Result<()> {
     } else {
         results::BOOK
     };
+    if let Some(bad) = a
+        .only
+        .iter()
+        .flatten()
+        .find(|t| !TABLES.contains(&t.as_str()))
+    {
+        return Err(anyhow!("--only {bad:?}: one of {}", TABLES.join(", ")));
+    }
+    let want = |t: &str| a.only.as_ref().is_none_or(|o| o.iter().any(|x| x == t));
     let threads = a.threads.unwrap_or_else(super::cores);
     let (date, commit) = (results::today(), results::commit());
     let write = |name: &str, command: String, body: String| -> Result<()> {
@@ -45,16 +61,24 @@ pub fn run(a: &Args) -> Result<()> {
         println!("wrote {}", p.display());
         Ok(())
     };
-    for sensor in ["nav440", "mtig"] {
+    for sensor in ["nav440", "mtig"].into_iter().filter(|_| want("reproduce")) {
         let (cmd, body) = reproduce(sensor, &set)?;
         write(&format!("reproduce-{sensor}.md"), cmd, body)?;
     }
-    for kind in [DriveKind::City, DriveKind::Highway] {
+    for kind in [DriveKind::City, DriveKind::Highway]
+        .into_iter()
+        .filter(|_| want("outages"))
+    {
         let (cmd, body) = outages(kind, &set, threads)?;
         write(&format!("outages-{}.md", kind.name()), cmd, body)?;
     }
-    let (cmd, body) = study(&["nav440", "mtig"], None, &set, threads)?;
-    write("study.md", cmd, body)?;
+    if want("study") {
+        let (cmd, body) = study(&["nav440", "mtig"], None, &set, threads)?;
+        write("study.md", cmd, body)?;
+    }
+    if !want("study-real-noise") {
+        return Ok(());
+    }
     match real_noise() {
         Ok(real) => {
             let grades = ["adis16405", "adis16405+real"];
