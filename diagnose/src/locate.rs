@@ -149,13 +149,17 @@ pub fn locate(p: &Prediction, parts: &[usize], res: &[Vec<f64>; 6], dt: f64) -> 
         splits.push(((*label).to_string(), v, sel.len()));
     }
     // By rate: thirds of the turning samples' |rate|, when the run has
-    // more than one rate.
+    // more than one rate (its 5th and 95th percentiles differ: the
+    // spin-up's few samples do not make a one-rate run a many-rate one).
     let mut rates: Vec<f64> = (0..n)
         .filter(|r| matches!(parts[*r], 1 | 2))
         .map(|r| p.theta[r].1.abs())
         .collect();
     rates.sort_by(f64::total_cmp);
-    if let (Some(lo), Some(hi)) = (rates.first(), rates.last()) {
+    if let (Some(lo), Some(hi)) = (
+        rates.get(rates.len() / 20),
+        rates.get(rates.len() * 19 / 20),
+    ) {
         if *hi > 1.2 * lo.max(1e-9) {
             let q1 = rates[rates.len() / 3];
             let q2 = rates[2 * rates.len() / 3];

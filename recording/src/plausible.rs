@@ -69,15 +69,25 @@ pub struct Implausible {
 impl std::fmt::Display for Implausible {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let name = channel_name(self.channel);
+        let with_unit = |v: f64| {
+            if self.channel < 3 {
+                format!("{v} rad/s ({:.0} deg/s)", v.to_degrees())
+            } else {
+                // Standard gravity, the g of the book's units table.
+                format!("{v} m/s^2 ({:.1} g)", v / 9.806_65)
+            }
+        };
         write!(
             f,
             "imu.csv data row {} (t = {} s): {name} = {}, ",
             self.row + 1,
             self.t_s,
-            self.value
+            with_unit(self.value)
         )?;
         match self.kind {
-            Kind::BeyondFullScale(fs) => write!(f, "beyond the sensor's full scale {fs:.4}"),
+            Kind::BeyondFullScale(fs) => {
+                write!(f, "beyond the sensor's full scale {}", with_unit(fs))
+            }
             Kind::Spike(s) => write!(f, "a spike {s:.0} robust sigmas off its neighbours"),
             Kind::Stuck(n) => write!(f, "stuck: one of {n} equal readings in a row"),
         }

@@ -88,6 +88,12 @@ fn contradictory_flags_are_refused_with_the_reason() {
     // simulate's default has no still phase: calibrate says which flag
     // gives one.
     refused(&rins(&["calibrate", r]), &["--static-s"]);
+    // The same --out twice (following the book in order twice): refused
+    // before simulating, with the flag that fixes it.
+    refused(
+        &rins(&["simulate", "--duration-s", "5", "--out", r]),
+        &["holds a recording already", "another --out"],
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 

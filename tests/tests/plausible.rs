@@ -48,6 +48,12 @@ fn a_gyro_at_fourteen_times_full_scale_is_found_and_excluded() {
     assert!(matches!(hit[0].kind, Kind::BeyondFullScale(_)));
     let text = hit[0].to_string();
     assert!(text.contains(&format!("data row {}", k + 1)), "{text}");
+    // Both values with their unit (50 rad/s = 2865 deg/s; the range 250
+    // deg/s).
+    assert!(
+        text.contains("50 rad/s (2865 deg/s)") && text.contains("(250 deg/s)"),
+        "{text}"
+    );
     // Without the full scale, it is a spike all the same.
     assert!(check(&rec, None)
         .iter()

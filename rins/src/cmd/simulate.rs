@@ -3,7 +3,7 @@
 use super::{parse_effect, AxisArg, SchemeArg, SiteArgs};
 use rins::progress_bar;
 
-use anyhow::{anyhow, Context, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
@@ -186,6 +186,12 @@ pub fn run(a: &Args) -> Result<()> {
         .out
         .as_ref()
         .ok_or_else(|| anyhow!("--out DIR is required"))?;
+    if out.join("meta.toml").exists() {
+        bail!(
+            "{} holds a recording already (a recording is never rewritten in place): give another --out",
+            out.display()
+        );
+    }
     if let (Some(like), Some(mp)) = (&a.like, &a.sim_model) {
         let rec = super::read_recording(like)?;
         let text =
