@@ -254,7 +254,7 @@ pub fn background_full(g: &Grade, axis: Axis, seed: u64) -> SimConfig {
 pub const FULL_NULL_RUNS: usize = 3;
 
 /// Null run `k` (mod [`FULL_NULL_RUNS`]) on the background `c`: the
-/// study's own run; the README's example (`--scheme reciprocating
+/// study's own run; the book's diagnose example (`--scheme reciprocating
 /// --rate-dps 60`: one turn each way, no still start); the board's run
 /// (continuous at 30 deg/s). The last two are where the 14-bit encoder's
 /// quantisation was once fitted as physics.
@@ -805,7 +805,7 @@ pub fn markdown(s: &Study) -> String {
                 .map(|(k, v)| format!("{k} {v}"))
                 .collect();
             out += &format!(
-                "the README's example and the board's run (the whole sensor, no still start): {} of {n} name something beyond the profile's own terms at up to {PROFILE_FACTOR}x their size{}\n",
+                "the diagnose chapter's example and the board's run (the whole sensor, no still start): {} of {n} name something beyond the profile's own terms at up to {PROFILE_FACTOR}x their size{}\n",
                 n - clean,
                 if beyond.is_empty() {
                     String::new()
