@@ -222,7 +222,7 @@ fn legend_width(labels: &[&str]) -> u32 {
     if longest == 0 {
         0
     } else {
-        (longest as u32 * 7 + 48).max(110)
+        (longest as u32 * 15 / 2 + 56).max(110)
     }
 }
 
