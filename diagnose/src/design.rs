@@ -6,6 +6,7 @@ use super::effects::Candidate;
 use super::noise::{self, Gains, Noise};
 use super::{encoder_quantum, Options, Prediction, NOMINAL_PRIOR};
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 /// Who a design column belongs to.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -233,20 +234,13 @@ impl Design {
                 zp,
             }
         };
-        // The six channels are independent: one thread each (the noise
-        // fit is the larger part of a diagnosis).
-        let chans: Vec<ChannelDesign> = std::thread::scope(|sc| {
-            let handles: Vec<_> = cols
-                .iter()
-                .enumerate()
-                .map(|(ch, cc)| sc.spawn(move || make(ch, cc)))
-                .collect();
-            handles
-                .into_iter()
-                .enumerate()
-                .map(|(ch, h)| h.join().unwrap_or_else(|_| make(ch, &cols[ch])))
-                .collect()
-        });
+        // The six channels are independent: in parallel (the noise fit is
+        // the larger part of a diagnosis).
+        let chans: Vec<ChannelDesign> = cols
+            .par_iter()
+            .enumerate()
+            .map(|(ch, cc)| make(ch, cc))
+            .collect();
         let unseen = unseen(&chans, &cands);
         Self {
             ch: chans,

@@ -72,6 +72,7 @@ use effects::{Candidate, Kind};
 use model::apply_known;
 use noise::Noise;
 use predict::{check, dt_of};
+use rayon::prelude::*;
 use recording::Recording;
 use report::report;
 use select::{confirm_slow, report_stats, select, strongest_p, Selection};
@@ -338,12 +339,6 @@ fn final_noise(d: &Design, s: &Selection) -> [Noise; 6] {
         true => Noise::none(block_s),
         false => noise::fit(&d.block_residual(&s.fit, ch), block_s, d.quant[ch]),
     };
-    let v: Vec<Noise> = std::thread::scope(|sc| {
-        let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || fit(ch))).collect();
-        hs.into_iter()
-            .enumerate()
-            .map(|(ch, h)| h.join().unwrap_or_else(|_| fit(ch)))
-            .collect()
-    });
+    let v: Vec<Noise> = (0..6).into_par_iter().map(fit).collect();
     std::array::from_fn(|ch| v[ch])
 }

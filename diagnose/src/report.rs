@@ -10,6 +10,7 @@ use super::{
     dt_of, locate, Details, Diagnosis, Finding, FitFigures, Parameter, Prediction, BIC_MARGIN,
 };
 use hal_sim::catalogue::EffectId;
+use rayon::prelude::*;
 
 /// Lags of the dispersion estimate: 50 blocks (10 s at 0.2 s), the time
 /// over which the slow regressors change and the encoder grid's beat with
@@ -147,26 +148,20 @@ pub(super) fn report(
     let segs = &segs;
     // Per channel, in parallel: the block means' ML models (white +
     // Gauss-Markov, white only) and the one noise estimator's Allan fit.
+    let one = |ch: usize| {
+        let z = d.block_residual(&sel.fit, ch);
+        if !p.recorded(ch) {
+            let none = Noise::none(block_s);
+            return (z, none, none, core_nav::allan::NoiseFit::default());
+        }
+        let gm = noise::fit(&z, block_s, d.quant[ch]);
+        let wn = noise::fit_white(&z, block_s, d.quant[ch]);
+        let a = crate::noise_terms::fit_channel(&res_after[ch], dt, segs).1;
+        (z, gm, wn, a)
+    };
     #[allow(clippy::type_complexity)]
     let per_ch: Vec<(Vec<f64>, Noise, Noise, core_nav::allan::NoiseFit)> =
-        std::thread::scope(|sc| {
-            let one = |ch: usize| {
-                let z = d.block_residual(&sel.fit, ch);
-                if !p.recorded(ch) {
-                    let none = Noise::none(block_s);
-                    return (z, none, none, core_nav::allan::NoiseFit::default());
-                }
-                let gm = noise::fit(&z, block_s, d.quant[ch]);
-                let wn = noise::fit_white(&z, block_s, d.quant[ch]);
-                let a = crate::noise_terms::fit_channel(&res_after[ch], dt, segs).1;
-                (z, gm, wn, a)
-            };
-            let hs: Vec<_> = (0..6).map(|ch| sc.spawn(move || one(ch))).collect();
-            hs.into_iter()
-                .enumerate()
-                .map(|(ch, h)| h.join().unwrap_or_else(|_| one(ch)))
-                .collect()
-        });
+        (0..6).into_par_iter().map(one).collect();
     let mut allan: Vec<core_nav::allan::NoiseFit> = per_ch.iter().map(|f| f.3).collect();
     let fits: Vec<(Vec<f64>, Noise, Noise)> = per_ch
         .into_iter()

@@ -36,12 +36,12 @@ use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::SimError;
 use hal_sim::sim::{simulate, SimConfig};
+use rayon::prelude::*;
 use recording::Recording;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::sync::Mutex;
 
 /// The table axis an effect's run turns about and a reference magnitude
 /// (SI, the `--effect` unit; earth_rate in rad/s of extra rate) from which
@@ -371,7 +371,7 @@ pub fn inject(
 }
 
 /// One cell of the table.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Cell {
     /// Grade.
     pub grade: String,
@@ -396,7 +396,7 @@ pub struct Cell {
 }
 
 /// Minimum detectable effect of one effect in one grade's run.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Mde {
     /// Grade.
     pub grade: String,
@@ -442,7 +442,7 @@ pub struct Study {
 
 /// What a run named: effects (most significant first), look-alikes, the
 /// run's strongest evidence (adjusted tail probability).
-type Named = (Vec<String>, Vec<String>, f64);
+pub type Named = (Vec<String>, Vec<String>, f64);
 
 /// A null with the whole sensor: what it names beyond the profile's own
 /// terms ([`beyond_profile`]) and the smallest adjusted noise-alone
@@ -520,27 +520,66 @@ pub fn mde(g: &Grade, effect: EffectId, axis: Axis, reference: f64) -> Result<Md
     })
 }
 
-/// A unit of work.
-enum Job {
-    Cell { cell: usize, seed: u64 },
-    Null { grade: usize, seed: u64 },
-    FullNull { grade: usize, seed: u64, run: usize },
+/// A unit of work: one run of a cell, a null, or a null with the whole
+/// sensor.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Job {
+    /// Cell `cell`'s run with `seed`.
+    Cell {
+        /// Index into [`Plan::cells`].
+        cell: usize,
+        /// The run's seed.
+        seed: u64,
+    },
+    /// A null of grade `grade` (index into the plan's grades).
+    Null {
+        /// Grade index.
+        grade: usize,
+        /// The run's seed.
+        seed: u64,
+    },
+    /// A null with the whole sensor, as run `run` of [`full_null_run`].
+    FullNull {
+        /// Grade index.
+        grade: usize,
+        /// The run's seed.
+        seed: u64,
+        /// Which run.
+        run: usize,
+    },
 }
 
-/// Runs the study: `runs` seeds per cell, `nulls` null runs per grade
-/// (half about z, half about y), on `threads` threads.
+/// What a study will run: its MDEs, cells and jobs (every shard of a
+/// study computes the same plan; the jobs are what the shards split).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// The grades' names, in order.
+    pub grades: Vec<String>,
+    /// Seeds per cell.
+    pub runs: usize,
+    /// MDE per grade and effect.
+    pub mde: Vec<Mde>,
+    /// The cells, nothing counted yet.
+    pub cells: Vec<Cell>,
+    /// Each cell's (grade index, effect, axis, magnitude in inject's unit).
+    #[serde(skip)]
+    meta: Vec<(usize, EffectId, Axis, f64)>,
+    /// Every run of the study, in order: job `i` is the study's run `i`.
+    pub jobs: Vec<Job>,
+}
+
+/// Plans the study: `runs` seeds per cell, `nulls` null runs per grade
+/// (half about z, half about y), seeds from `seed`.
 ///
 /// # Errors
-/// A simulation failure or an unknown grade.
-pub fn run(
+/// A simulation failure (the MDEs' runs).
+pub fn plan(
     grades: &[Grade],
     effects: &[(EffectId, Axis, f64)],
     runs: usize,
     nulls: usize,
     seed: u64,
-    threads: usize,
-    progress: &(dyn Fn(f64) + Sync),
-) -> Result<Study, StudyError> {
+) -> Result<Plan, StudyError> {
     // MDEs first (two noise-free-difference runs each).
     let mut mdes = vec![];
     for g in grades {
@@ -623,66 +662,91 @@ pub fn run(
             });
         }
     }
-    let next = AtomicUsize::new(0);
+    Ok(Plan {
+        grades: grades.iter().map(|g| g.name.clone()).collect(),
+        runs,
+        mde: mdes,
+        cells,
+        meta,
+        jobs,
+    })
+}
+
+/// Runs the plan's jobs whose index `keep` accepts (all of them: the
+/// whole study; `i % N == K`: shard K of N), in parallel on rayon's pool;
+/// returns (job index, what it named) in job order.
+///
+/// # Errors
+/// A simulation or diagnosis failure.
+pub fn run_jobs(
+    grades: &[Grade],
+    plan: &Plan,
+    keep: &(dyn Fn(usize) -> bool + Sync),
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<Vec<(usize, Named)>, StudyError> {
+    let mine: Vec<usize> = (0..plan.jobs.len()).filter(|i| keep(*i)).collect();
     let done = AtomicUsize::new(0);
-    #[allow(clippy::type_complexity)]
-    let results: Mutex<Vec<(usize, Named)>> = Mutex::new(vec![]);
-    let failure: Mutex<Option<StudyError>> = Mutex::new(None);
-    let total = jobs.len().max(1);
-    std::thread::scope(|sc| {
-        for _ in 0..threads.max(1) {
-            sc.spawn(|| loop {
-                let i = next.fetch_add(1, Ordering::Relaxed);
-                let Some(job) = jobs.get(i) else { break };
-                let out = match job {
-                    Job::Cell { cell, seed } => {
-                        let (gi, e, axis, mag) = meta[*cell];
-                        let bi = e == EffectId::BiasInstability;
-                        let g = &grades[gi];
-                        let mut c = background_full(g, axis, *seed);
-                        inject(&mut c, &g.spec, e, mag)
-                            .and_then(|()| record(g, &c, *seed))
-                            .and_then(|r| named(&r, bi))
-                    }
-                    Job::Null { grade, seed } => {
-                        let axis = if seed % 2 == 0 { Axis::Z } else { Axis::Y };
-                        let g = &grades[*grade];
-                        record(g, &background_full(g, axis, *seed), *seed)
-                            .and_then(|r| beyond_profile_named(&r, &g.spec))
-                    }
-                    Job::FullNull { grade, seed, run } => {
-                        let g = &grades[*grade];
-                        let c = full_null_run(background_full(g, Axis::Z, *seed), *run);
-                        record(g, &c, *seed).and_then(|r| {
-                            let d = diagnose_run(&r, "study", &Options::default())?;
-                            Ok((beyond_profile(&d, &g.spec), vec![], 1.0))
-                        })
-                    }
-                };
-                match out {
-                    Ok(v) => {
-                        if let Ok(mut r) = results.lock() {
-                            r.push((i, v));
-                        }
-                    }
-                    Err(e) => {
-                        if let Ok(mut f) = failure.lock() {
-                            *f = Some(e);
-                        }
-                    }
-                }
-                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(d as f64 / total as f64);
-            });
+    let total = mine.len().max(1);
+    mine.par_iter()
+        .map(|&i| {
+            let out = run_job(grades, plan, &plan.jobs[i]).map(|v| (i, v));
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(d as f64 / total as f64);
+            out
+        })
+        .collect()
+}
+
+fn run_job(grades: &[Grade], plan: &Plan, job: &Job) -> Result<Named, StudyError> {
+    match job {
+        Job::Cell { cell, seed } => {
+            let (gi, e, axis, mag) = *plan
+                .meta
+                .get(*cell)
+                .ok_or_else(|| StudyError::Worker(format!("no cell {cell}")))?;
+            let bi = e == EffectId::BiasInstability;
+            let g = &grades[gi];
+            let mut c = background_full(g, axis, *seed);
+            inject(&mut c, &g.spec, e, mag)
+                .and_then(|()| record(g, &c, *seed))
+                .and_then(|r| named(&r, bi))
         }
-    });
-    if let Some(e) = failure.into_inner().ok().flatten() {
-        return Err(e);
+        Job::Null { grade, seed } => {
+            let axis = if seed % 2 == 0 { Axis::Z } else { Axis::Y };
+            let g = &grades[*grade];
+            record(g, &background_full(g, axis, *seed), *seed)
+                .and_then(|r| beyond_profile_named(&r, &g.spec))
+        }
+        Job::FullNull { grade, seed, run } => {
+            let g = &grades[*grade];
+            let c = full_null_run(background_full(g, Axis::Z, *seed), *run);
+            record(g, &c, *seed).and_then(|r| {
+                let d = diagnose_run(&r, "study", &Options::default())?;
+                Ok((beyond_profile(&d, &g.spec), vec![], 1.0))
+            })
+        }
     }
-    let mut results = results
-        .into_inner()
-        .map_err(|_| StudyError::Worker("a worker thread panicked".into()))?;
+}
+
+/// The study from its plan and every job's result (from one run or from
+/// all the shards, in any order): the same counts either way.
+///
+/// # Errors
+/// A job missing or given twice.
+pub fn aggregate(plan: &Plan, mut results: Vec<(usize, Named)>) -> Result<Study, StudyError> {
     results.sort_by_key(|r| r.0);
+    let idx: Vec<usize> = results.iter().map(|r| r.0).collect();
+    if idx != (0..plan.jobs.len()).collect::<Vec<_>>() {
+        return Err(StudyError::Worker(format!(
+            "{} results for {} jobs: a shard is missing or given twice",
+            idx.len(),
+            plan.jobs.len()
+        )));
+    }
+    let jobs = &plan.jobs;
+    let mut cells = plan.cells.clone();
+    let runs = plan.runs;
+    let mdes = plan.mde.clone();
     let mut confusion: BTreeMap<String, BTreeMap<String, usize>> = BTreeMap::new();
     let mut null_runs = BTreeMap::new();
     let mut false_alarms = BTreeMap::new();
@@ -707,7 +771,7 @@ pub fn run(
                 }
             }
             Job::FullNull { grade, .. } => {
-                let g = grades[*grade].name.clone();
+                let g = plan.grades[*grade].clone();
                 *full_null_runs.entry(g.clone()).or_insert(0) += 1;
                 let named = full_named.entry(g).or_default();
                 if found.is_empty() {
@@ -718,7 +782,7 @@ pub fn run(
                 }
             }
             Job::Null { grade, .. } => {
-                let g = grades[*grade].name.clone();
+                let g = plan.grades[*grade].clone();
                 null_p.entry(g.clone()).or_default().push(p_adj);
                 *null_runs.entry(g.clone()).or_insert(0) += 1;
                 let fa = !found.is_empty();
@@ -743,6 +807,43 @@ pub fn run(
         full_null_runs,
         full_named,
     })
+}
+
+/// The format of a study shard's JSON.
+pub const SHARD_FORMAT: &str = "rins-study-shard/1";
+
+/// One shard of a study: its plan (the same in every shard), which shard
+/// it is (k of n, as `--shard K/N`), and the results of its jobs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StudyShard {
+    /// [`SHARD_FORMAT`].
+    pub format: String,
+    /// The study's plan.
+    pub plan: Plan,
+    /// This shard, from 0.
+    pub k: usize,
+    /// Shards in all.
+    pub n: usize,
+    /// (job index, what the run named), in job order.
+    pub results: Vec<(usize, Named)>,
+}
+
+/// Runs the whole study: `runs` seeds per cell, `nulls` null runs per
+/// grade (half about z, half about y), in parallel on rayon's pool.
+///
+/// # Errors
+/// A simulation failure or an unknown grade.
+pub fn run(
+    grades: &[Grade],
+    effects: &[(EffectId, Axis, f64)],
+    runs: usize,
+    nulls: usize,
+    seed: u64,
+    progress: &(dyn Fn(f64) + Sync),
+) -> Result<Study, StudyError> {
+    let p = plan(grades, effects, runs, nulls, seed)?;
+    let results = run_jobs(grades, &p, &|_| true, progress)?;
+    aggregate(&p, results)
 }
 
 /// The study as Markdown: detection per magnitude, MDEs, false alarms, the

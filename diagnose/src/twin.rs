@@ -18,6 +18,7 @@
 //! simulator itself, not with the regression's own columns.
 
 use super::locate::{harmonics, parts, PART_LABELS};
+use rayon::prelude::*;
 
 use super::{predict, Blocks, Diagnosis, Model};
 use hal_sim::catalogue::EffectId;
@@ -77,17 +78,10 @@ fn rms_diff(a: &[f64], b: &[f64]) -> f64 {
 /// # Errors
 /// The twin cannot be simulated ([`simulate_like`]).
 pub fn closeness(rec: &Recording, model: &SimModel, seed: u64) -> Result<Closeness, TwinError> {
-    let twins: Vec<Recording> = std::thread::scope(|sc| {
-        let hs: Vec<_> = (0..TWIN_SEEDS)
-            .map(|k| sc.spawn(move || simulate_like(rec, model, seed.wrapping_add(k))))
-            .collect();
-        hs.into_iter()
-            .map(|h| {
-                h.join()
-                    .unwrap_or_else(|_| Err(TwinError::Recording("a twin thread failed".into())))
-            })
-            .collect::<Result<Vec<_>, _>>()
-    })?;
+    let twins: Vec<Recording> = (0..TWIN_SEEDS)
+        .into_par_iter()
+        .map(|k| simulate_like(rec, model, seed.wrapping_add(k)))
+        .collect::<Result<Vec<_>, _>>()?;
     Ok(closeness_to(rec, &twins))
 }
 

@@ -22,6 +22,7 @@ pub mod record;
 pub mod report;
 pub mod reproduce;
 pub mod results;
+pub mod shard;
 pub mod ubx;
 
 /// A job's progress, measured in thousandths: on a terminal a bar with

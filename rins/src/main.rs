@@ -9,6 +9,10 @@ mod cmd;
 #[derive(Parser)]
 #[command(name = "rins", version, about)]
 struct Cli {
+    /// Worker threads of every parallel part (studies, Monte Carlo runs,
+    /// diagnose's channels, twins); default: the machine's cores.
+    #[arg(long, global = true)]
+    threads: Option<usize>,
     #[command(subcommand)]
     command: Tool,
 }
@@ -37,6 +41,9 @@ enum Tool {
     /// Regenerate the book's result tables (reproduce, outages, study) from
     /// their runs, stamped with the date and commit.
     Results(cmd::results::Args),
+    /// Put the shards of a study (`--shard K/N --json`) back together:
+    /// the tables one run gives, bit for bit.
+    Merge(cmd::merge::Args),
     /// Build the QEMU test's input: a recording replayed through the board's logic on the host.
     QemuReplay(cmd::qemu_replay::Args),
     /// Decode the board's telemetry (a serial port or a captured file) into a recording.
@@ -67,6 +74,10 @@ fn main() -> Result<()> {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
+    let threads = cli.threads.unwrap_or_else(cmd::cores).max(1);
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()?;
     match cli.command {
         Tool::Simulate(a) => cmd::simulate::run(&a),
         Tool::Calibrate(a) => cmd::calibrate::run(&a),
@@ -82,5 +93,6 @@ fn main() -> Result<()> {
         Tool::Study(a) => cmd::study::run(&a),
         Tool::Outages(a) => cmd::outages::run(&a),
         Tool::Results(a) => cmd::results::run(&a),
+        Tool::Merge(a) => cmd::merge::run(&a),
     }
 }

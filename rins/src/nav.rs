@@ -231,7 +231,7 @@ pub fn trajectory_csv(rows: &[TrajRow]) -> String {
 
 /// Errors of a static run against its truth (rest at the start point, base
 /// attitude from meta): RMS over the rows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StaticErrors {
     /// Horizontal position RMS, m.
     pub h_pos_rms_m: f64,

@@ -5,6 +5,7 @@
 //! sensor. The figure is the horizontal error at each outage's end.
 
 use crate::aided::{self, AidedOptions};
+use crate::shard::Shard;
 use anyhow::{anyhow, Result};
 use core_nav::scheme::Scheme;
 use core_nav::stats::{mean, median};
@@ -12,9 +13,9 @@ use core_nav::table::Axis;
 use hal_sim::drive::{DriveKind, GnssSpec};
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, DriveSpec, SimConfig};
-use serde::Serialize;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Outages of each drive: (start s, length s). Starts are spread so each
 /// outage begins at a different point of the drive (moving or stopped).
@@ -25,7 +26,7 @@ pub const DRIVE_S: f64 = 900.0;
 pub const TABLE_DPS: f64 = 30.0;
 
 /// One drive navigated.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DriveResult {
     /// Sensor profile.
     pub imu: String,
@@ -43,16 +44,29 @@ pub struct DriveResult {
     pub nees_in_95: f64,
 }
 
-/// The study.
-#[derive(Clone, Debug, Serialize)]
+/// The study (or one shard of it).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OutageStudy {
+    /// `rins-outages/1`.
+    pub format: String,
     /// Drive kind.
     pub drive: String,
+    /// The sensors, in order.
+    pub imus: Vec<String>,
+    /// The first drive's seed.
+    pub first_seed: u64,
+    /// Drives per sensor and scheme.
+    pub drives: u64,
+    /// The shard these runs are (0/1: the whole study).
+    pub shard: Shard,
     /// Outages (start, length), s.
     pub outages: Vec<(f64, f64)>,
-    /// Every drive.
+    /// Every drive run, in the study's order (sensor, rotary first, seed).
     pub runs: Vec<DriveResult>,
 }
+
+/// The format of the study's JSON.
+pub const FORMAT: &str = "rins-outages/1";
 
 /// The simulation of one drive with the study's outages.
 pub fn config(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> SimConfig {
@@ -87,62 +101,91 @@ pub fn config_with(
     c
 }
 
-/// Runs `drives` seeds per (sensor, scheme) on `threads` threads.
+/// Runs `drives` seeds per (sensor, scheme) from `first_seed`, the drives
+/// of `shard` only (drive `d`, seed `first_seed + d`, when `d mod N = K`),
+/// in parallel on rayon's pool.
 ///
 /// # Errors
 /// A simulation or navigation failure.
 pub fn run(
     kind: DriveKind,
     imus: &[ImuSpec],
+    first_seed: u64,
     drives: u64,
-    threads: usize,
+    shard: Shard,
     progress: &(dyn Fn(f64) + Sync),
 ) -> Result<OutageStudy> {
     let jobs: Vec<(usize, bool, u64)> = (0..imus.len())
         .flat_map(|i| {
-            [true, false]
-                .into_iter()
-                .flat_map(move |r| (1..=drives).map(move |s| (i, r, s)))
+            [true, false].into_iter().flat_map(move |r| {
+                (0..drives)
+                    .filter(move |d| shard.has(*d as usize))
+                    .map(move |d| (i, r, first_seed + d))
+            })
         })
         .collect();
-    let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
-    let out: Mutex<Vec<(usize, DriveResult)>> = Mutex::new(vec![]);
-    let fail: Mutex<Option<anyhow::Error>> = Mutex::new(None);
-    std::thread::scope(|sc| {
-        for _ in 0..threads.max(1) {
-            sc.spawn(|| loop {
-                let j = next.fetch_add(1, Ordering::Relaxed);
-                let Some(&(i, rotary, seed)) = jobs.get(j) else {
-                    break;
-                };
-                match one(kind, &imus[i], rotary, seed) {
-                    Ok(r) => {
-                        if let Ok(mut o) = out.lock() {
-                            o.push((j, r));
-                        }
-                    }
-                    Err(e) => {
-                        if let Ok(mut f) = fail.lock() {
-                            f.get_or_insert(e);
-                        }
-                    }
-                }
-                let d = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(d as f64 / jobs.len() as f64);
-            });
-        }
-    });
-    if let Some(e) = fail.into_inner().ok().flatten() {
-        return Err(e);
-    }
-    let mut runs = out.into_inner().map_err(|_| anyhow!("a worker panicked"))?;
-    runs.sort_by_key(|r| r.0);
+    let runs = jobs
+        .par_iter()
+        .map(|&(i, rotary, seed)| {
+            let r = one(kind, &imus[i], rotary, seed);
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(d as f64 / jobs.len().max(1) as f64);
+            r
+        })
+        .collect::<Result<Vec<_>>>()?;
     Ok(OutageStudy {
+        format: FORMAT.into(),
         drive: kind.name().into(),
+        imus: imus.iter().map(|m| m.name.clone()).collect(),
+        first_seed,
+        drives,
+        shard,
         outages: OUTAGES.to_vec(),
-        runs: runs.into_iter().map(|r| r.1).collect(),
+        runs,
     })
+}
+
+/// The shards of one study put back together: the study one run would
+/// have given, bit for bit.
+///
+/// # Errors
+/// Shards of different studies, or not every shard once.
+pub fn merge(parts: Vec<OutageStudy>) -> Result<OutageStudy> {
+    let first = parts.first().ok_or_else(|| anyhow!("no shard to merge"))?;
+    let same = |p: &OutageStudy| {
+        (
+            &p.format,
+            &p.drive,
+            &p.imus,
+            p.first_seed,
+            p.drives,
+            &p.outages,
+        ) == (
+            &first.format,
+            &first.drive,
+            &first.imus,
+            first.first_seed,
+            first.drives,
+            &first.outages,
+        )
+    };
+    if let Some(p) = parts.iter().find(|p| !same(p)) {
+        return Err(anyhow!(
+            "shard {}/{} is of another study (drive, sensors, seeds or outages differ)",
+            p.shard.k,
+            p.shard.n
+        ));
+    }
+    let shards: Vec<Shard> = parts.iter().map(|p| p.shard).collect();
+    crate::shard::complete(&shards).map_err(|e| anyhow!(e))?;
+    let mut merged = first.clone();
+    merged.shard = Shard::ALL;
+    merged.runs = parts.into_iter().flat_map(|p| p.runs).collect();
+    let imus = merged.imus.clone();
+    let pos = |r: &DriveResult| imus.iter().position(|m| *m == r.imu).unwrap_or(usize::MAX);
+    merged.runs.sort_by_key(|r| (pos(r), !r.rotary, r.seed));
+    Ok(merged)
 }
 
 fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveResult> {

@@ -12,14 +12,18 @@
 
 use crate::calibrate::{calibrate, Method};
 use crate::nav::{navigate, static_errors, NavOptions, StaticErrors};
+use crate::shard::Shard;
+use anyhow::anyhow;
 use anyhow::Result;
 use core_nav::calib::GyroCalibration;
 use core_nav::scheme::Scheme;
 use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, SimConfig};
+use rayon::prelude::*;
 use recording::Recording;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// The paper's mean RMS over all rates: (imu, mode, horizontal position m,
 /// horizontal velocity m/s), Sec. 4.2.1-4.2.2.
@@ -63,7 +67,7 @@ pub enum Plan {
 }
 
 /// One table row: a mode at a rate, averaged over runs.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Row {
     /// `conventional`, `rotary-partial`, `rotary-full`, `rotary-best`, `noise-floor`.
     pub mode: String,
@@ -79,6 +83,8 @@ pub struct Row {
     pub pitch_rms_deg: f64,
     /// Heading RMS, deg.
     pub heading_rms_deg: f64,
+    /// Each run's seed, ascending.
+    pub seeds: Vec<u64>,
     /// Each run's errors, in seed order (the means above are theirs).
     pub runs: Vec<StaticErrors>,
 }
@@ -234,7 +240,7 @@ pub fn mean(e: &[StaticErrors]) -> StaticErrors {
     m
 }
 
-fn row(mode: &str, rate_dps: f64, runs: Vec<StaticErrors>) -> Row {
+fn row(mode: &str, rate_dps: f64, seeds: Vec<u64>, runs: Vec<StaticErrors>) -> Row {
     let e = mean(&runs);
     Row {
         mode: mode.to_string(),
@@ -244,12 +250,42 @@ fn row(mode: &str, rate_dps: f64, runs: Vec<StaticErrors>) -> Row {
         roll_rms_deg: e.roll_rms_deg,
         pitch_rms_deg: e.pitch_rms_deg,
         heading_rms_deg: e.heading_rms_deg,
+        seeds,
         runs,
     }
 }
 
-/// Runs the whole experiment for `spec`: `runs` seeds from `seed`, at
-/// `rates`. `progress` gets the fraction done.
+/// The format of `rins reproduce --json`.
+pub const FORMAT: &str = "rins-reproduce/1";
+
+/// What `rins reproduce --json` writes (a whole run or one shard).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Output {
+    /// [`FORMAT`].
+    pub format: String,
+    /// The sensor.
+    pub imu: String,
+    /// Runs per mode and rate (of the whole study).
+    pub runs: usize,
+    /// The first seed.
+    pub seed: u64,
+    /// The shard these rows hold (0/1: all).
+    pub shard: Shard,
+    /// The rows.
+    pub rows: Vec<Row>,
+}
+
+/// The modes of the experiment after the conventional run, in order.
+const PLANS: [(&str, Plan); 4] = [
+    ("rotary-partial", Plan::Paper { full: false }),
+    ("rotary-full", Plan::Paper { full: true }),
+    ("rotary-best", Plan::Best),
+    ("noise-floor", Plan::NoiseFloor),
+];
+
+/// Runs the experiment for `spec`: `runs` seeds from `seed`, at `rates`,
+/// the runs of `shard` only (run `k`, seed `seed + k`, when `k mod N =
+/// K`), in parallel on rayon's pool. `progress` gets the fraction done.
 ///
 /// # Errors
 /// Any run's failure.
@@ -258,36 +294,79 @@ pub fn reproduce(
     runs: usize,
     seed: u64,
     rates: &[f64],
-    progress: &mut dyn FnMut(f64),
+    shard: Shard,
+    progress: &(dyn Fn(f64) + Sync),
 ) -> Result<Vec<Row>> {
-    let plans: [(&str, Plan); 4] = [
-        ("rotary-partial", Plan::Paper { full: false }),
-        ("rotary-full", Plan::Paper { full: true }),
-        ("rotary-best", Plan::Best),
-        ("noise-floor", Plan::NoiseFloor),
-    ];
-    let total = (runs * (1 + rates.len() * plans.len())) as f64;
-    let mut done = 0.0;
-    let mut rows = vec![];
-    let mut conv = vec![];
-    for k in 0..runs {
-        conv.push(run_one(spec, Plan::Conventional, 0.0, seed + k as u64)?);
-        done += 1.0;
-        progress(done / total);
+    let seeds: Vec<u64> = (0..runs)
+        .filter(|k| shard.has(*k))
+        .map(|k| seed + k as u64)
+        .collect();
+    let mut cells: Vec<(&str, Plan, f64)> = vec![("conventional", Plan::Conventional, 0.0)];
+    for (name, plan) in PLANS {
+        cells.extend(rates.iter().map(|r| (name, plan, *r)));
     }
-    rows.push(row("conventional", 0.0, conv));
-    for (name, plan) in plans {
-        for &r in rates {
-            let mut es = vec![];
-            for k in 0..runs {
-                es.push(run_one(spec, plan, r, seed + k as u64)?);
-                done += 1.0;
-                progress(done / total);
-            }
-            rows.push(row(name, r, es));
+    let jobs: Vec<(usize, u64)> = (0..cells.len())
+        .flat_map(|c| seeds.iter().map(move |s| (c, *s)))
+        .collect();
+    let done = AtomicUsize::new(0);
+    let errors = jobs
+        .par_iter()
+        .map(|&(c, s)| {
+            let (_, plan, rate) = cells[c];
+            let e = run_one(spec, plan, rate, s);
+            let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+            progress(d as f64 / jobs.len().max(1) as f64);
+            e
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let per_cell = |c: usize| {
+        errors
+            .get(c * seeds.len()..(c + 1) * seeds.len())
+            .unwrap_or(&[])
+    };
+    Ok(cells
+        .iter()
+        .enumerate()
+        .map(|(c, (name, _, rate))| row(name, *rate, seeds.clone(), per_cell(c).to_vec()))
+        .collect())
+}
+
+/// The shards' rows put back together: per mode and rate the runs of every
+/// shard in seed order, and their means, as one run gives them.
+///
+/// # Errors
+/// Shards whose rows do not match (another sensor, rates or modes), or a
+/// seed given twice.
+pub fn merge(parts: Vec<Vec<Row>>) -> Result<Vec<Row>> {
+    let first = parts.first().ok_or_else(|| anyhow!("no shard to merge"))?;
+    let mut out = vec![];
+    for (i, r0) in first.iter().enumerate() {
+        let mut pairs: Vec<(u64, StaticErrors)> = vec![];
+        for p in &parts {
+            let r = p
+                .get(i)
+                .filter(|r| r.mode == r0.mode && r.rate_dps == r0.rate_dps)
+                .ok_or_else(|| {
+                    anyhow!(
+                        "the shards' rows differ at {} {} deg/s",
+                        r0.mode,
+                        r0.rate_dps
+                    )
+                })?;
+            pairs.extend(r.seeds.iter().copied().zip(r.runs.iter().copied()));
         }
+        pairs.sort_by_key(|p| p.0);
+        if pairs.windows(2).any(|w| w[0].0 == w[1].0) {
+            return Err(anyhow!(
+                "a seed is in two shards ({} {} deg/s)",
+                r0.mode,
+                r0.rate_dps
+            ));
+        }
+        let (seeds, runs) = pairs.into_iter().unzip();
+        out.push(row(&r0.mode, r0.rate_dps, seeds, runs));
     }
-    Ok(rows)
+    Ok(out)
 }
 
 /// Mean over the rates of one mode: (h_pos, h_vel).

@@ -576,8 +576,9 @@ fn nees_over_position_velocity_and_attitude_is_honest_on_both_sensors_and_scheme
     let study = outages::run(
         DriveKind::City,
         &[ImuSpec::nav440(), ImuSpec::icm42688()],
+        1,
         4,
-        2,
+        rins::shard::Shard::ALL,
         &|_| {},
     )
     .unwrap();

@@ -470,7 +470,6 @@ fn blind_study_runs_and_its_mde_is_calibrated() {
         1,
         2,
         5,
-        2,
         &|_| {},
     )
     .unwrap();

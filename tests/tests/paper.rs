@@ -7,7 +7,15 @@ use rins::reproduce::{mode_mean, reproduce};
 
 #[test]
 fn nav440_reproduces_the_papers_figures_and_orderings() {
-    let rows = reproduce(&ImuSpec::nav440(), 2, 11, &[10.0, 50.0, 100.0], &mut |_| {}).unwrap();
+    let rows = reproduce(
+        &ImuSpec::nav440(),
+        2,
+        11,
+        &[10.0, 50.0, 100.0],
+        rins::shard::Shard::ALL,
+        &|_| {},
+    )
+    .unwrap();
     let m = |mode| mode_mean(&rows, mode).unwrap();
     let (conv, partial, full, best, floor) = (
         m("conventional"),

@@ -7,6 +7,7 @@ pub mod command;
 pub mod demo;
 pub mod diagnose;
 pub mod import;
+pub mod merge;
 pub mod navigate;
 pub mod outages;
 pub mod qemu_replay;

@@ -2,9 +2,10 @@
 //! ([`rins::outages`]).
 
 use super::write_file;
-use anyhow::{anyhow, Result};
+use anyhow::{anyhow, bail, Result};
 use hal_sim::drive::DriveKind;
 use rins::progress_bar;
+use rins::shard::Shard;
 use std::path::PathBuf;
 
 /// `rins outages`.
@@ -19,9 +20,13 @@ pub struct Args {
     /// Drives (seeds) per sensor and scheme.
     #[arg(long, default_value_t = 20)]
     pub drives: u64,
-    /// Worker threads.
-    #[arg(long, default_value_t = 2)]
-    pub threads: usize,
+    /// The first drive's seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Run only shard K of N (K from 0: the drives d with d mod N = K) and
+    /// write them with --json for `rins merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
     /// Write every run as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -43,23 +48,48 @@ pub fn run(a: &Args) -> Result<()> {
         .split(',')
         .map(|n| Ok(hal_sim::sensor::resolve(n.trim())?))
         .collect::<Result<Vec<_>>>()?;
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    if shard.n > 1 && a.json.is_none() {
+        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
+    }
     let pb = progress_bar("outages");
-    let s = rins::outages::run(kind, &imus, a.drives, a.threads, &|f| {
+    let s = rins::outages::run(kind, &imus, a.seed, a.drives, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)
     })?;
     pb.finish_and_clear();
-    let md = s.markdown();
-    print!("{md}");
-    if let Some(p) = &a.markdown {
-        write_file(p, &md)?;
-    }
-    if let Some(p) = &a.json {
-        write_file(p, &serde_json::to_string_pretty(&s)?)?;
-    }
+    show(&s, a.json.as_deref(), a.markdown.as_deref())?;
     if let (Some(dir), Some(first)) = (&a.plots, imus.first()) {
-        for p in rins::outages::plots(kind, first, 1, dir)? {
+        for p in rins::outages::plots(kind, first, a.seed, dir)? {
             println!("wrote {}", p.display());
         }
+    }
+    Ok(())
+}
+
+/// Prints the table of `s` (a whole study) and writes what is asked; a
+/// shard is only written as JSON.
+pub fn show(
+    s: &rins::outages::OutageStudy,
+    json: Option<&std::path::Path>,
+    markdown: Option<&std::path::Path>,
+) -> Result<()> {
+    if let Some(p) = json {
+        write_file(p, &serde_json::to_string_pretty(s)?)?;
+        println!("wrote {}", p.display());
+    }
+    if s.shard.n > 1 {
+        println!(
+            "shard {}/{}: {} drives; `rins merge` makes the table",
+            s.shard.k,
+            s.shard.n,
+            s.runs.len()
+        );
+        return Ok(());
+    }
+    let md = s.markdown();
+    print!("{md}");
+    if let Some(p) = markdown {
+        write_file(p, &md)?;
     }
     Ok(())
 }

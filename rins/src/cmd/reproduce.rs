@@ -4,6 +4,7 @@
 use super::write_file;
 use anyhow::{anyhow, bail, Result};
 use hal_sim::imu::ImuSpec;
+use rins::shard::Shard;
 use rins::{progress_bar, report, reproduce as repro};
 use std::path::PathBuf;
 
@@ -23,9 +24,16 @@ pub struct Args {
     /// Write the rins-reproduce/1 JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the book's table (markdown) here.
+    #[arg(long)]
+    pub markdown: Option<PathBuf>,
     /// Write the plots (SVG and PNG) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    /// Run only shard K of N (K from 0: the runs k with k mod N = K) and
+    /// write them with --json for `rins merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
 }
 
 /// Runs `rins reproduce`.
@@ -40,19 +48,60 @@ pub fn run(a: &Args) -> Result<()> {
         bail!("--runs must be at least 1");
     }
     let spec = ImuSpec::by_name(&a.sensor).ok_or_else(|| anyhow!("unknown imu"))?;
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    if shard.n > 1 && a.json.is_none() {
+        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
+    }
     let pb = progress_bar("reproduce");
-    let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, &mut |f| {
+    let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)
     })?;
     pb.finish_and_clear();
-    print!("{}", repro::text_report(&rows, &a.sensor, a.runs));
-    if let Some(p) = &a.json {
-        let v = serde_json::json!({"format": "rins-reproduce/1", "imu": a.sensor, "rows": rows});
-        write_file(p, &serde_json::to_string_pretty(&v)?)?;
+    let out = repro::Output {
+        format: repro::FORMAT.into(),
+        imu: a.sensor.clone(),
+        runs: a.runs,
+        seed: a.seed,
+        shard,
+        rows,
+    };
+    show(
+        &out,
+        a.json.as_deref(),
+        a.markdown.as_deref(),
+        a.plots.as_deref(),
+    )
+}
+
+/// Prints the report of `out` (a whole study) and writes what is asked:
+/// the JSON, the book's markdown table, the plots. A shard is only
+/// written as JSON.
+pub fn show(
+    out: &repro::Output,
+    json: Option<&std::path::Path>,
+    markdown: Option<&std::path::Path>,
+    plots: Option<&std::path::Path>,
+) -> Result<()> {
+    if let Some(p) = json {
+        write_file(p, &serde_json::to_string_pretty(out)?)?;
         println!("wrote {}", p.display());
     }
-    if let Some(d) = &a.plots {
-        for chart in report::reproduce_charts(&rows, &a.sensor) {
+    if out.shard.n > 1 {
+        println!(
+            "shard {}/{}: {} runs a cell; `rins merge` makes the tables",
+            out.shard.k,
+            out.shard.n,
+            out.rows.first().map_or(0, |r| r.runs.len())
+        );
+        return Ok(());
+    }
+    print!("{}", repro::text_report(&out.rows, &out.imu, out.runs));
+    if let Some(p) = markdown {
+        write_file(p, &repro::markdown(&out.rows, &out.imu))?;
+        println!("wrote {}", p.display());
+    }
+    if let Some(d) = plots {
+        for chart in report::reproduce_charts(&out.rows, &out.imu) {
             chart.write(d)?;
         }
         println!("plots in {}", d.display());

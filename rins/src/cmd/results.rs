@@ -5,6 +5,7 @@ use anyhow::{anyhow, Result};
 use hal_sim::drive::DriveKind;
 use rins::realnoise::RealNoise;
 use rins::results::{self, Setting};
+use rins::shard::Shard;
 use rins::{progress_bar, reproduce as repro};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -19,9 +20,6 @@ pub struct Args {
     /// for its figures (CI's check that the command still works).
     #[arg(long)]
     pub small: bool,
-    /// Threads (default: the machine's cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
     /// Only these tables (comma-separated: reproduce, outages, study,
     /// study-real-noise); default: all.
     #[arg(long, value_delimiter = ',')]
@@ -47,7 +45,6 @@ pub fn run(a: &Args) -> Result<()> {
         return Err(anyhow!("--only {bad:?}: one of {}", TABLES.join(", ")));
     }
     let want = |t: &str| a.only.as_ref().is_none_or(|o| o.iter().any(|x| x == t));
-    let threads = a.threads.unwrap_or_else(super::cores);
     let (date, commit) = (results::today(), results::commit());
     let write = |name: &str, command: String, body: String| -> Result<()> {
         let p = a.out.join(name);
@@ -69,11 +66,11 @@ pub fn run(a: &Args) -> Result<()> {
         .into_iter()
         .filter(|_| want("outages"))
     {
-        let (cmd, body) = outages(kind, &set, threads)?;
+        let (cmd, body) = outages(kind, &set)?;
         write(&format!("outages-{}.md", kind.name()), cmd, body)?;
     }
     if want("study") {
-        let (cmd, body) = study(&["nav440", "mtig"], None, &set, threads)?;
+        let (cmd, body) = study(&["nav440", "mtig"], None, &set)?;
         write("study.md", cmd, body)?;
     }
     if !want("study-real-noise") {
@@ -82,7 +79,7 @@ pub fn run(a: &Args) -> Result<()> {
     match real_noise() {
         Ok(real) => {
             let grades = ["adis16405", "adis16405+real"];
-            let (cmd, body) = study(&grades, Some(real), &set, threads)?;
+            let (cmd, body) = study(&grades, Some(real), &set)?;
             write("study-real-noise.md", cmd, body)?;
         }
         Err(e) => println!(
@@ -95,9 +92,14 @@ pub fn run(a: &Args) -> Result<()> {
 fn reproduce(sensor: &str, set: &Setting) -> Result<(String, String)> {
     let spec = hal_sim::sensor::resolve(sensor)?;
     let pb = progress_bar(&format!("reproduce {sensor}"));
-    let rows = repro::reproduce(&spec, set.reproduce_runs, 1, &repro::RATES_DPS, &mut |f| {
-        pb.set_position((f * 1000.0) as u64)
-    })?;
+    let rows = repro::reproduce(
+        &spec,
+        set.reproduce_runs,
+        1,
+        &repro::RATES_DPS,
+        Shard::ALL,
+        &|f| pb.set_position((f * 1000.0) as u64),
+    )?;
     pb.finish_and_clear();
     let cmd = format!(
         "rins reproduce --sensor {sensor} --runs {}",
@@ -106,13 +108,13 @@ fn reproduce(sensor: &str, set: &Setting) -> Result<(String, String)> {
     Ok((cmd, repro::markdown(&rows, sensor)))
 }
 
-fn outages(kind: DriveKind, set: &Setting, threads: usize) -> Result<(String, String)> {
+fn outages(kind: DriveKind, set: &Setting) -> Result<(String, String)> {
     let imus = ["nav440", "icm42688"]
         .iter()
         .map(|n| Ok(hal_sim::sensor::resolve(n)?))
         .collect::<Result<Vec<_>>>()?;
     let pb = progress_bar(&format!("outages {}", kind.name()));
-    let s = rins::outages::run(kind, &imus, set.outage_drives, threads, &|f| {
+    let s = rins::outages::run(kind, &imus, 1, set.outage_drives, Shard::ALL, &|f| {
         pb.set_position((f * 1000.0) as u64)
     })?;
     pb.finish_and_clear();
@@ -124,12 +126,7 @@ fn outages(kind: DriveKind, set: &Setting, threads: usize) -> Result<(String, St
     Ok((cmd, s.markdown()))
 }
 
-fn study(
-    names: &[&str],
-    real: Option<Arc<RealNoise>>,
-    set: &Setting,
-    threads: usize,
-) -> Result<(String, String)> {
+fn study(names: &[&str], real: Option<Arc<RealNoise>>, set: &Setting) -> Result<(String, String)> {
     let grades = names
         .iter()
         .map(|n| rins::study::grade(n, real.as_ref()))
@@ -141,7 +138,6 @@ fn study(
         set.study_runs,
         set.study_nulls,
         1,
-        threads,
         &|f| pb.set_position((f * 1000.0) as u64),
     )?;
     pb.finish_and_clear();

@@ -1,9 +1,10 @@
 //! `rins study`: the blind study of diagnose ([`rins::study`]).
 
 use super::write_file;
-use anyhow::Result;
+use anyhow::{bail, Result};
 use rins::progress_bar;
 use rins::realnoise::RealNoise;
+use rins::shard::Shard;
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -35,9 +36,10 @@ pub struct Args {
     /// First seed.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Threads (default: the machine's cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
+    /// Run only shard K of N (K from 0: the study's jobs i with i mod N =
+    /// K) and write them with --json for `rins merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
     /// Write the JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -48,8 +50,10 @@ pub struct Args {
 
 /// Runs `rins study`.
 pub fn run(a: &Args) -> Result<()> {
-    let pb = progress_bar("study");
-    let threads = a.threads.unwrap_or_else(super::cores);
+    let shard = a.shard.unwrap_or(Shard::ALL);
+    if shard.n > 1 && a.json.is_none() {
+        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
+    }
     let real = if a.real_noise || a.real_noise_file.is_some() {
         let path = a.real_noise_file.clone().unwrap_or_else(|| {
             super::shared_data().join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")
@@ -67,22 +71,48 @@ pub fn run(a: &Args) -> Result<()> {
         .iter()
         .map(|n| rins::study::grade(n, real.as_ref()))
         .collect::<Result<Vec<_>, _>>()?;
-    let s = rins::study::run(
-        &grades,
-        &rins::study::effects(),
-        a.runs,
-        a.nulls,
-        a.seed,
-        threads,
-        &|f| pb.set_position((f * 1000.0) as u64),
-    )?;
+    let pb = progress_bar("study");
+    let plan = rins::study::plan(&grades, &rins::study::effects(), a.runs, a.nulls, a.seed)?;
+    let results = rins::study::run_jobs(&grades, &plan, &|i| shard.has(i), &|f| {
+        pb.set_position((f * 1000.0) as u64)
+    })?;
     pb.finish_and_clear();
-    let md = rins::study::markdown(&s);
-    print!("{md}");
-    if let Some(p) = &a.json {
-        write_file(p, &serde_json::to_string_pretty(&s)?)?;
+    if shard.n > 1 {
+        let out = rins::study::StudyShard {
+            format: rins::study::SHARD_FORMAT.into(),
+            plan,
+            k: shard.k,
+            n: shard.n,
+            results,
+        };
+        if let Some(p) = &a.json {
+            write_file(p, &serde_json::to_string_pretty(&out)?)?;
+            println!(
+                "wrote {}: shard {}/{}, {} runs; `rins merge` makes the tables",
+                p.display(),
+                shard.k,
+                shard.n,
+                out.results.len()
+            );
+        }
+        return Ok(());
     }
-    if let Some(p) = &a.markdown {
+    let s = rins::study::aggregate(&plan, results)?;
+    show(&s, a.json.as_deref(), a.markdown.as_deref())
+}
+
+/// Prints the study's tables and writes what is asked.
+pub fn show(
+    s: &rins::study::Study,
+    json: Option<&std::path::Path>,
+    markdown: Option<&std::path::Path>,
+) -> Result<()> {
+    let md = rins::study::markdown(s);
+    print!("{md}");
+    if let Some(p) = json {
+        write_file(p, &serde_json::to_string_pretty(s)?)?;
+    }
+    if let Some(p) = markdown {
         write_file(p, &md)?;
     }
     Ok(())
