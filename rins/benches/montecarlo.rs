@@ -3,11 +3,14 @@
 //! still and 60 s turning at 30 deg/s for the calibration, then 5 min of
 //! navigation at the rate (`rins::reproduce::run_one`: simulate in
 //! hal-sim, calibrate, navigate; in memory, no files). Two benchmarks:
-//! one run, and 20 runs on 2 threads (10 each), whose time x 50 is the
-//! 1,000-run figure on this machine's 2 cores.
+//! one run on one core, whose throughput line is the runs per second per
+//! core, and 20 runs on 2 threads (10 each, rayon as the studies run
+//! them), whose time x 50 is the 1,000-run figure on this machine's 2
+//! cores (throughput: runs per second on both).
 
-use criterion::{black_box, criterion_group, criterion_main, Criterion};
+use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 use hal_sim::imu::ImuSpec;
+use rayon::prelude::*;
 use rins::reproduce::{run_one, Plan};
 
 fn one(seed: u64) -> f64 {
@@ -15,29 +18,25 @@ fn one(seed: u64) -> f64 {
 }
 
 fn montecarlo(c: &mut Criterion) {
-    c.bench_function("rotary_run_5min_simulate_calibrate_navigate", |b| {
+    let mut g = c.benchmark_group("montecarlo");
+    g.throughput(Throughput::Elements(1));
+    g.bench_function("rotary_run_5min_simulate_calibrate_navigate", |b| {
         let mut seed = 0;
         b.iter(|| {
             seed += 1;
             black_box(one(seed))
         })
     });
-    c.bench_function("rotary_runs_20_on_2_threads", |b| {
-        b.iter(|| {
-            std::thread::scope(|s| {
-                let h: Vec<_> = (0..2u64)
-                    .map(|t| {
-                        s.spawn(move || (0..10u64).map(|k| one(100 + 10 * t + k)).sum::<f64>())
-                    })
-                    .collect();
-                black_box(
-                    h.into_iter()
-                        .map(|h| h.join().unwrap_or(f64::NAN))
-                        .sum::<f64>(),
-                )
+    g.throughput(Throughput::Elements(20));
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build();
+    if let Ok(pool) = pool {
+        g.bench_function("rotary_runs_20_on_2_threads", |b| {
+            b.iter(|| {
+                pool.install(|| black_box((100..120u64).into_par_iter().map(one).sum::<f64>()))
             })
-        })
-    });
+        });
+    }
+    g.finish();
 }
 
 criterion_group! {
