@@ -87,15 +87,7 @@ pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
                 .with_dash(Dash::Dashed),
             );
         }
-        Chart {
-            title: format!("{title}: {what}"),
-            x_label: "averaging time tau [s]".into(),
-            y_label: format!("Allan deviation [{unit}]"),
-            log_x: true,
-            log_y: true,
-            series,
-            ..Chart::default()
-        }
+        Chart::allan(format!("{title}: {what}"), unit, series)
     };
     Figure {
         charts: vec![chart(0..3, "gyroscopes"), chart(3..6, "accelerometers")],

@@ -227,6 +227,20 @@ fn legend_width(labels: &[&str]) -> u32 {
 }
 
 impl Chart {
+    /// An Allan deviation chart: log-log, tau in s against the deviation
+    /// in `unit` (the book's units table: deg/h, ug).
+    pub fn allan(title: String, unit: &str, series: Vec<Series>) -> Self {
+        Self {
+            title,
+            x_label: "averaging time tau [s]".into(),
+            y_label: format!("Allan deviation [{unit}]"),
+            log_x: true,
+            log_y: true,
+            series,
+            ..Self::default()
+        }
+    }
+
     /// Is a point drawable on this chart's axes?
     fn ok(&self, x: f64, y: f64) -> bool {
         x.is_finite() && y.is_finite() && (!self.log_x || x > 0.0) && (!self.log_y || y > 0.0)

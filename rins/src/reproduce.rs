@@ -275,6 +275,15 @@ pub struct Output {
     pub rows: Vec<Row>,
 }
 
+/// Every mode of the experiment, in the tables' order.
+pub const MODES: [&str; 5] = [
+    "conventional",
+    "rotary-partial",
+    "rotary-full",
+    "rotary-best",
+    "noise-floor",
+];
+
 /// The modes of the experiment after the conventional run, in order.
 const PLANS: [(&str, Plan); 4] = [
     ("rotary-partial", Plan::Paper { full: false }),
@@ -417,13 +426,7 @@ pub fn text_report(rows: &[Row], imu: &str, runs: usize) -> String {
         "{:<15} {:>12} {:>10} {:>14} {:>12}",
         "mode", "pos [m]", "vel [m/s]", "paper pos [m]", "paper vel"
     );
-    for mode in [
-        "conventional",
-        "rotary-partial",
-        "rotary-full",
-        "rotary-best",
-        "noise-floor",
-    ] {
+    for mode in MODES {
         if let Some((p, v)) = mode_mean(rows, mode) {
             let paper = PAPER.iter().find(|(i, m, _, _)| *i == imu && *m == mode);
             let (pp, pv) = paper.map_or(("-".to_string(), "-".to_string()), |(_, _, p, v)| {
@@ -461,13 +464,7 @@ pub fn markdown(rows: &[Row], imu: &str) -> String {
     let mut o = format!(
         "| {imu} | h. position [m] | h. velocity [m/s] | runs' range, position [m] | paper |\n| --- | --- | --- | --- | --- |\n"
     );
-    for mode in [
-        "conventional",
-        "rotary-partial",
-        "rotary-full",
-        "rotary-best",
-        "noise-floor",
-    ] {
+    for mode in MODES {
         let Some((p, v)) = mode_mean(rows, mode) else {
             continue;
         };

@@ -364,15 +364,11 @@ fn allan_chart(d: &Diagnosis, ch: usize) -> Chart {
             taus.iter().map(|t| (*t, model_adev(n, *t) * s)).collect(),
         ));
     }
-    Chart {
-        title: format!("{}: residual's Allan deviation", CHANNELS[ch]),
-        x_label: "averaging time tau [s]".into(),
-        y_label: format!("Allan deviation [{unit}]"),
-        log_x: true,
-        log_y: true,
+    Chart::allan(
+        format!("{}: residual's Allan deviation", CHANNELS[ch]),
+        unit,
         series,
-        ..Chart::default()
-    }
+    )
 }
 
 /// The residuals' amplitude at each harmonic of the table angle, before

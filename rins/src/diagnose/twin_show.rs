@@ -105,18 +105,14 @@ pub fn plots(
                         ))
                     })
                     .collect();
-                Chart {
-                    title: format!(
+                Chart::allan(
+                    format!(
                         "{}: recording minus its twin, Allan deviation (with / without each finding)",
                         CHANNELS[ch]
                     ),
-                    x_label: "averaging time tau [s]".into(),
-                    y_label: format!("Allan deviation [{unit}]"),
-                    log_x: true,
-                    log_y: true,
+                    unit,
                     series,
-                    ..Chart::default()
-                }
+                )
             })
             .collect();
         out.extend(Figure { charts }.write(&dir.join(format!("twin_allan_{label}")))?);
