@@ -220,6 +220,24 @@ pub struct TriadModel {
     pub bi_tau_s: Vector3<f64>,
     /// Rate random walk per axis, unit/sqrt(s).
     pub rrw: Vector3<f64>,
+    /// The bias processes' step coefficients, made from the fields above.
+    drift_steps: DriftSteps,
+}
+
+/// A Gauss-Markov step per axis: (exp(-dt / tau), driving sigma in unit).
+type DriftStep = (Vector3<f64>, Vector3<f64>);
+/// The key a set of steps was made for: (dt s, sigma, tau s, flicker).
+type DriftKey = (f64, Vector3<f64>, Vector3<f64>, bool);
+
+/// [`TriadModel::drift_steps`]' memo: derived from the model's fields, so
+/// not part of its identity (any two compare equal).
+#[derive(Clone, Debug, Default)]
+struct DriftSteps(Option<(DriftKey, [DriftStep; FLICKER_BANK])>);
+
+impl PartialEq for DriftSteps {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl TriadModel {
@@ -260,16 +278,45 @@ impl TriadModel {
             bias_instability: Vector3::repeat(spec.bias_instability),
             bi_tau_s: Vector3::repeat(spec.bi_tau_s),
             rrw: Vector3::repeat(spec.rrw),
+            drift_steps: DriftSteps::default(),
         }
     }
 
     /// Advances the bias processes by `dt` s (each axis with its own
     /// magnitudes; an axis without a process keeps its state).
     pub fn advance(&mut self, dt: f64, rng: &mut Rng) {
+        let any_gm = (0..3).any(|i| self.bias_instability[i] > 0.0 && self.bi_tau_s[i] > 0.0);
+        if any_gm {
+            let steps = self.drift_steps(dt);
+            if self.spec.flicker {
+                let mut sum = Vector3::zeros();
+                for (b, (phi, q)) in self.gm_bank.iter_mut().zip(steps) {
+                    *b = b.component_mul(&phi) + rng.normal3().component_mul(&q);
+                    sum += *b;
+                }
+                self.gm = sum;
+            } else {
+                let (phi, q) = steps[0];
+                self.gm = self.gm.component_mul(&phi) + rng.normal3().component_mul(&q);
+            }
+        }
+        if self.rrw.iter().any(|r| *r > 0.0) {
+            self.rw += rng.normal3().component_mul(&(self.rrw * dt.sqrt()));
+        }
+    }
+
+    /// Per Gauss-Markov process (the flicker bank's, or the one in its
+    /// first slot): exp(-dt / tau) per axis (1 where there is no process)
+    /// and the driving sigma that keeps the stationary sigma. Made once
+    /// per `dt` and set of magnitudes (a run's samples share them).
+    fn drift_steps(&mut self, dt: f64) -> [DriftStep; FLICKER_BANK] {
+        let key = (dt, self.bias_instability, self.bi_tau_s, self.spec.flicker);
+        if let Some((k, steps)) = &self.drift_steps.0 {
+            if *k == key {
+                return *steps;
+            }
+        }
         let has = |i: usize| self.bias_instability[i] > 0.0 && self.bi_tau_s[i] > 0.0;
-        let any_gm = (0..3).any(has);
-        // exp(-dt / tau) per axis (1 where there is no process) and the
-        // driving sigma that keeps the stationary sigma `sigma`.
         let step = |tau_rel: f64, sigma: &Vector3<f64>| {
             let phi = Vector3::from_fn(|i, _| {
                 if has(i) {
@@ -287,22 +334,14 @@ impl TriadModel {
             });
             (phi, q)
         };
-        if any_gm && self.spec.flicker {
+        let steps = if self.spec.flicker {
             let sigma = self.bias_instability * FLICKER_SIGMA;
-            let mut sum = Vector3::zeros();
-            for (b, rel) in self.gm_bank.iter_mut().zip(FLICKER_TAUS) {
-                let (phi, q) = step(rel, &sigma);
-                *b = b.component_mul(&phi) + rng.normal3().component_mul(&q);
-                sum += *b;
-            }
-            self.gm = sum;
-        } else if any_gm {
-            let (phi, q) = step(1.0, &self.bias_instability);
-            self.gm = self.gm.component_mul(&phi) + rng.normal3().component_mul(&q);
-        }
-        if self.rrw.iter().any(|r| *r > 0.0) {
-            self.rw += rng.normal3().component_mul(&(self.rrw * dt.sqrt()));
-        }
+            FLICKER_TAUS.map(|rel| step(rel, &sigma))
+        } else {
+            [step(1.0, &self.bias_instability); FLICKER_BANK]
+        };
+        self.drift_steps = DriftSteps(Some((key, steps)));
+        steps
     }
 
     /// The deterministic part of the output for truth `x` at temperature

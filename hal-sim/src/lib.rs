@@ -9,7 +9,9 @@
 //!   (`rins-sensor/1`), the shipped datasheet profiles among them.
 //! - [`catalogue`]: the diagnose-v1 effect ids, the one list the
 //!   simulator's knobs, diagnose and the study are keyed by.
-//! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]).
+//! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]);
+//!   [`motion`]: the table's motion under its servo, made once and shared
+//!   by every run of one table and scheme.
 //! - [`dual`]: dual-axis sequences on a tri-axial table.
 //! - [`drive`]: a vehicle under the table (city / highway drives, the ideal
 //!   sensor on a moving base, the GNSS receiver).
@@ -27,6 +29,7 @@ pub mod drivers;
 pub mod dual;
 pub mod icm42688;
 pub mod imu;
+pub mod motion;
 pub mod rng;
 pub mod sensor;
 pub mod sim;

@@ -9,10 +9,10 @@
 use crate::catalogue::EffectId;
 use crate::drive::{Drive, DriveKind, GnssSpec, Receiver, Vehicle, VehicleState};
 use crate::imu::{ImuModel, ImuSpec};
+use crate::motion::motion;
 use crate::rng::Rng;
 use crate::world::{
-    Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Servo, Site, Table,
-    UntrackedMotion,
+    Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Site, UntrackedMotion,
 };
 use core_nav::attitude::Euler;
 use core_nav::scheme::{Limits, Profile, Scheme};
@@ -449,56 +449,6 @@ pub const EFFECTS: &[Effect] = &[
     },
 ];
 
-/// Kinematics history at the physics rate, to evaluate the truth at
-/// slightly earlier times (latency, jitter).
-struct History {
-    dt: f64,
-    first_tick: u64,
-    buf: VecDeque<Kinematics>,
-    cap: usize,
-}
-
-impl History {
-    fn new(dt: f64, cap: usize) -> Self {
-        Self {
-            dt,
-            first_tick: 0,
-            buf: VecDeque::with_capacity(cap),
-            cap,
-        }
-    }
-
-    fn push(&mut self, k: Kinematics) {
-        if self.buf.len() == self.cap {
-            self.buf.pop_front();
-            self.first_tick += 1;
-        }
-        self.buf.push_back(k);
-    }
-
-    /// Kinematics at `t` by cubic Hermite interpolation of the angle (with
-    /// the rates as slopes), linear in rate and acceleration.
-    fn at(&self, t: f64) -> Kinematics {
-        let x = (t / self.dt - self.first_tick as f64).max(0.0);
-        let i = (x.floor() as usize).min(self.buf.len().saturating_sub(2));
-        let (Some(a), Some(b)) = (self.buf.get(i), self.buf.get(i + 1)) else {
-            return self.buf.back().copied().unwrap_or_default();
-        };
-        let u = (x - i as f64).clamp(0.0, 1.0);
-        let h = self.dt;
-        let (u2, u3) = (u * u, u * u * u);
-        let theta = (2.0 * u3 - 3.0 * u2 + 1.0) * a.theta
-            + (u3 - 2.0 * u2 + u) * h * a.rate
-            + (-2.0 * u3 + 3.0 * u2) * b.theta
-            + (u3 - u2) * h * b.rate;
-        Kinematics {
-            theta,
-            rate: a.rate + u * (b.rate - a.rate),
-            accel: a.accel + u * (b.accel - a.accel),
-        }
-    }
-}
-
 /// The largest jitter used, s (samples are taken this long after their
 /// stamp so the truth is known on both sides).
 const MAX_JITTER_S: f64 = 0.004;
@@ -562,12 +512,25 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     let mut k_gnss = 1u64;
     let mut jitter = Rng::new(cfg.seed, 3);
     let mut untracked = Rng::new(cfg.seed, 41);
-    let mut table = Table::new(cfg.motor.clone());
-    let mut servo = Servo::for_motor(&cfg.motor);
-    let mut hist = History::new(PHYS_DT, 2_000);
-
     let reference = |t: f64| profile.at(t - cfg.static_s);
     let n_ticks = (cfg.duration_s / PHYS_DT).round() as u64 + 10;
+    // The table under its servo (none for a perfect table): shared by
+    // every run of this motor, scheme and length.
+    let table = if cfg.ideal {
+        None
+    } else {
+        Some(
+            motion(
+                &cfg.motor,
+                cfg.scheme,
+                cfg.limits,
+                cfg.static_s,
+                PHYS_DT,
+                n_ticks,
+            )
+            .map_err(SimError::Scheme)?,
+        )
+    };
     let imu_dt = 1.0 / cfg.imu_rate_hz;
     let n_imu = (cfg.duration_s * cfg.imu_rate_hz).floor() as u64 + 1;
     let n_enc = (cfg.duration_s * cfg.encoder_rate_hz).floor() as u64 + 1;
@@ -639,19 +602,9 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 }
             }
         }
-        if cfg.ideal {
-            hist.push(kin_exact(t));
-        } else {
-            hist.push(table.kin);
-            let v = servo.update(&reference(t), &table.kin, PHYS_DT);
-            table.step(PHYS_DT, v, 0.0);
-        }
-        let kin_at = |tt: f64| {
-            if cfg.ideal {
-                kin_exact(tt)
-            } else {
-                hist.at(tt)
-            }
+        let kin_at = |tt: f64| match &table {
+            Some(m) => m.at(tt),
+            None => kin_exact(tt),
         };
         // IMU samples whose truth (with jitter) is now known.
         while k_imu < n_imu {

@@ -100,6 +100,9 @@ impl Geometry {
         let mut d = Vector3::zeros();
         let mut dd = Vector3::zeros();
         for (n, [a, b, c, e]) in self.wobble_harmonics.iter().enumerate() {
+            if [a, b, c, e].iter().all(|x| **x == 0.0) {
+                continue; // adds zeros: skip its sine
+            }
             let nf = (n + 1) as f64;
             let (sn, cs) = (nf * theta).sin_cos();
             d += u1 * (a * cs + b * sn) + u2 * (c * cs + e * sn);
@@ -116,12 +119,26 @@ impl Geometry {
     /// `c_s_p` at platform angle `theta` (rad): the fixed wobble and the
     /// angle-locked one.
     pub fn c_s_p(&self, theta: f64) -> Matrix3<f64> {
-        *Rotation3::from_scaled_axis(self.wobble + self.wobble_at(theta).0).matrix()
+        self.mount(theta).c_s_p
     }
 
     /// `c_s_b` at platform angle `theta` (rad).
     pub fn c_s_b(&self, theta: f64) -> Matrix3<f64> {
-        Rotation3::from_scaled_axis(self.k_true() * theta).matrix() * self.c_s_p(theta)
+        self.mount(theta).c_s_b
+    }
+
+    /// The sensor's mount at platform angle `theta` (rad), each part
+    /// computed once.
+    fn mount(&self, theta: f64) -> Mount {
+        let k_t = self.k_true();
+        let (w, dw) = self.wobble_at(theta);
+        let c_s_p = *Rotation3::from_scaled_axis(self.wobble + w).matrix();
+        Mount {
+            k_t,
+            c_s_p,
+            c_s_b: Rotation3::from_scaled_axis(k_t * theta).matrix() * c_s_p,
+            dwobble: dw,
+        }
     }
 
     /// The rate of the sensor on its platform, rad/s in `s` (small
@@ -129,6 +146,18 @@ impl Geometry {
     pub fn wobble_rate(&self, k: &Kinematics) -> Vector3<f64> {
         self.wobble_at(k.theta).1 * k.rate
     }
+}
+
+/// [`Geometry`] at one platform angle: what the truth needs of it.
+struct Mount {
+    /// The true axis (in `b` and `p`).
+    k_t: Vector3<f64>,
+    /// `c_s_p`.
+    c_s_p: Matrix3<f64>,
+    /// `c_s_b`.
+    c_s_b: Matrix3<f64>,
+    /// The angle-locked wobble's derivative in the angle, rad per rad.
+    dwobble: Vector3<f64>,
 }
 
 /// The table turns (a stepper steps, so the motion the track cannot follow
@@ -202,17 +231,21 @@ impl Scene {
         f_b: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;
-        let kt = g.k_true();
-        let c_s_p = g.c_s_p(k.theta);
+        let Mount {
+            k_t: kt,
+            c_s_p,
+            c_s_b,
+            dwobble,
+        } = g.mount(k.theta);
         let c_p_s = c_s_p.transpose();
-        let c_b_s = g.c_s_b(k.theta).transpose();
+        let c_b_s = c_s_b.transpose();
         let (w_bump, a_bump) = self
             .bump
             .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
         (
-            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate) + g.wobble_rate(k),
+            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate) + dwobble * k.rate,
             c_b_s * (f_b + a_bump) + c_p_s * a_lever_p,
         )
     }
@@ -220,10 +253,14 @@ impl Scene {
     /// True `(w_is_s rad/s, f_s m/s^2)` for platform kinematics `k` at `t_s`.
     pub fn truth(&self, k: &Kinematics, t_s: f64) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;
-        let kt = g.k_true();
-        let c_s_p = g.c_s_p(k.theta);
+        let Mount {
+            k_t: kt,
+            c_s_p,
+            c_s_b,
+            dwobble,
+        } = g.mount(k.theta);
         let c_p_s = c_s_p.transpose();
-        let c_b_s = g.c_s_b(k.theta).transpose();
+        let c_b_s = c_s_b.transpose();
         let c_n_s = c_b_s * self.c_b_n().transpose();
         let (w_bump, a_bump) = self
             .bump
@@ -232,7 +269,7 @@ impl Scene {
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
         (
-            w_ideal + c_b_s * w_bump + g.wobble_rate(k),
+            w_ideal + c_b_s * w_bump + dwobble * k.rate,
             f_ideal + c_p_s * a_lever_p + c_b_s * a_bump,
         )
     }
