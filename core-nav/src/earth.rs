@@ -127,7 +127,30 @@ impl GeoPoint {
     /// The vector from `self` to `other` in the local NED frame at `self`
     /// (the tangent plane at the start point), m.
     pub fn ned_to(&self, other: &GeoPoint) -> Vector3<f64> {
-        self.c_e_n() * (other.to_ecef() - self.to_ecef())
+        self.tangent().ned_to(other)
+    }
+
+    /// The local NED frame at this point, for many [`Tangent::ned_to`]s.
+    pub fn tangent(&self) -> Tangent {
+        Tangent {
+            ecef: self.to_ecef(),
+            c_e_n: self.c_e_n(),
+        }
+    }
+}
+
+/// The local NED frame at a point ([`GeoPoint::tangent`]): its ECEF
+/// position (m) and `C_e_n`, made once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tangent {
+    ecef: Vector3<f64>,
+    c_e_n: nalgebra::Matrix3<f64>,
+}
+
+impl Tangent {
+    /// [`GeoPoint::ned_to`]: the vector to `other` in this NED frame, m.
+    pub fn ned_to(&self, other: &GeoPoint) -> Vector3<f64> {
+        self.c_e_n * (other.to_ecef() - self.ecef)
     }
 }
 

@@ -73,7 +73,15 @@ impl Site {
         c_n_s: &Matrix3<f64>,
         w_bs_s: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        (c_n_s * self.w_ie_n() + w_bs_s, c_n_s * self.f_rest_n())
+        self.at_rest().ideal_imu(c_n_s, w_bs_s)
+    }
+
+    /// What a body at rest here feels, in `n`: made once for many samples.
+    pub fn at_rest(&self) -> AtRest {
+        AtRest {
+            w_ie_n: self.w_ie_n(),
+            f_n: self.f_rest_n(),
+        }
     }
 
     /// The earth model a calibration on this site uses (the full earth
@@ -86,6 +94,27 @@ impl Site {
             c_b_n: c_b_n(base),
             axis,
         }
+    }
+}
+
+/// What a body at rest on a [`Site`] feels, in `n` ([`Site::at_rest`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AtRest {
+    /// Earth rate, rad/s ([`Site::w_ie_n`]).
+    pub w_ie_n: Vector3<f64>,
+    /// Specific force, m/s^2 ([`Site::f_rest_n`]).
+    pub f_n: Vector3<f64>,
+}
+
+impl AtRest {
+    /// [`Site::ideal_imu`]: `(w_is_s rad/s, f_s m/s^2)` for axes at
+    /// `c_n_s` turning at `w_bs_s` (rad/s, in `s`) on the base.
+    pub fn ideal_imu(
+        &self,
+        c_n_s: &Matrix3<f64>,
+        w_bs_s: &Vector3<f64>,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        (c_n_s * self.w_ie_n + w_bs_s, c_n_s * self.f_n)
     }
 }
 

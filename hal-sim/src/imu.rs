@@ -370,11 +370,27 @@ impl TriadModel {
                 v
             };
             if s.lsb > 0.0 {
-                (v / s.lsb).round() * s.lsb
+                round(v / s.lsb) * s.lsb
             } else {
                 v
             }
         })
+    }
+}
+
+/// `x.round()` (half away from zero) without the library call that x86-64's
+/// baseline instruction set needs for it (no rounding instruction before
+/// SSE4.1): the truncating conversion, exact below 2^52, where every
+/// float above is whole already.
+fn round(x: f64) -> f64 {
+    if x.is_nan() || x.abs() >= 4_503_599_627_370_496.0 {
+        return x; // whole, infinite or NaN
+    }
+    let t = x as i64 as f64;
+    if (x - t).abs() >= 0.5 {
+        t + x.signum()
+    } else {
+        t.copysign(x) // -0.3 rounds to -0, as f64::round
     }
 }
 
@@ -463,9 +479,45 @@ impl ImuModel {
     pub fn temp_output_c(&self, temp_c: f64) -> f64 {
         let l = self.spec.temp.lsb_c;
         if l > 0.0 {
-            (temp_c / l).round() * l
+            round(temp_c / l) * l
         } else {
             temp_c
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::round;
+
+    #[test]
+    fn round_is_f64_round_bit_for_bit() {
+        let mut edges = vec![
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.5,
+            2.5,
+            -2.5,
+            0.499_999_999_999_999_94,
+            -0.499_999_999_999_999_94,
+            4_503_599_627_370_495.5,
+            4_503_599_627_370_497.0,
+            1e300,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+        ];
+        // A spread of magnitudes and fractions, both signs.
+        let mut x = 1e-6;
+        while x < 1e17 {
+            edges.extend([x, -x, x + 0.5, -(x + 0.5)]);
+            x *= 1.37;
+        }
+        for x in edges {
+            assert_eq!(round(x).to_bits(), x.round().to_bits(), "{x}");
+        }
+        assert!(round(f64::NAN).is_nan());
     }
 }

@@ -2,7 +2,8 @@
 //! ([`Servo`]) driving the motor ([`Table`]) after the scheme's reference,
 //! tick by tick. Nothing in it is random, so every run of one motor,
 //! scheme and length shares it: [`motion`] makes it once and keeps the
-//! last few (a Monte Carlo of a thousand seeds steps the table once).
+//! last few (a Monte Carlo of a thousand seeds steps the table once), in
+//! a [`Kept`], the home of what runs share.
 
 use crate::world::{Kinematics, MotorParams, Servo, Table};
 use core_nav::scheme::{Limits, Profile, Scheme};
@@ -84,20 +85,13 @@ struct Key {
     n_ticks: u64,
 }
 
-/// Motions kept: the last few made or asked for.
-const KEPT: usize = 4;
-/// Ticks kept in all (24 bytes each: about 190 MB); a longer motion is
-/// made and not kept.
-const KEPT_TICKS: usize = 8_000_000;
-
-type Slot = Arc<OnceLock<Arc<Motion>>>;
-
-static KEPT_MOTIONS: Mutex<Vec<(Key, Slot)>> = Mutex::new(Vec::new());
+/// Motions kept: the last four made or asked for, up to 192 MB in all
+/// (24 bytes a tick); a longer motion is made and not kept.
+static KEPT_MOTIONS: Kept<Key, Motion> = Kept::new(4, 192 << 20);
 
 /// The motion of `motor` after `scheme` (within `limits`, starting
 /// `static_s` s in) for `n_ticks` ticks of `dt_s` s: from the last few
-/// made when one matches, else made now (by one thread; others asking for
-/// the same wait for it).
+/// made when one matches, else made now.
 pub fn motion(
     motor: &MotorParams,
     scheme: Scheme,
@@ -107,10 +101,6 @@ pub fn motion(
     n_ticks: u64,
 ) -> Result<Arc<Motion>, core_nav::NavError> {
     let profile = Profile::new(scheme, limits)?;
-    let make = || Arc::new(Motion::run(motor, &profile, static_s, dt_s, n_ticks));
-    if usize::try_from(n_ticks).map_or(true, |n| n > KEPT_TICKS) {
-        return Ok(make());
-    }
     let key = Key {
         motor: motor.clone(),
         scheme,
@@ -119,29 +109,66 @@ pub fn motion(
         dt_s,
         n_ticks,
     };
-    let slot = slot(key);
-    Ok(Arc::clone(slot.get_or_init(make)))
+    let bytes = usize::try_from(n_ticks)
+        .unwrap_or(usize::MAX)
+        .saturating_mul(std::mem::size_of::<Kinematics>());
+    Ok(KEPT_MOTIONS.get_or_make(key, bytes, || {
+        Motion::run(motor, &profile, static_s, dt_s, n_ticks)
+    }))
 }
 
-/// The slot for `key`, moved to the back (the most recent); a new one
-/// pushes out the oldest beyond [`KEPT`] or [`KEPT_TICKS`].
-fn slot(key: Key) -> Slot {
-    // A poisoned lock only means a thread panicked while holding it; the
-    // list itself is always whole.
-    let mut kept = KEPT_MOTIONS
-        .lock()
-        .unwrap_or_else(std::sync::PoisonError::into_inner);
-    let slot = match kept.iter().position(|(k, _)| *k == key) {
-        Some(i) => kept.remove(i).1,
-        None => Arc::new(OnceLock::new()),
-    };
-    kept.push((key, Arc::clone(&slot)));
-    let ticks =
-        |kept: &Vec<(Key, Slot)>| kept.iter().map(|(k, _)| k.n_ticks as usize).sum::<usize>();
-    while kept.len() > KEPT || (kept.len() > 1 && ticks(&kept) > KEPT_TICKS) {
-        kept.remove(0);
+/// The last few values made from their keys, for what every run of one
+/// configuration shares (nothing random in it). A value is made once, by
+/// the first thread to ask; others asking for it meanwhile wait for it.
+pub struct Kept<K, V> {
+    entries: usize,
+    bytes: usize,
+    list: Mutex<Vec<Entry<K, V>>>,
+}
+
+/// A key, its value's size in bytes, the value once made.
+type Entry<K, V> = (K, usize, Arc<OnceLock<Arc<V>>>);
+
+impl<K: PartialEq, V> Kept<K, V> {
+    /// Keeps the last `entries` values, at most `bytes` in all.
+    pub const fn new(entries: usize, bytes: usize) -> Self {
+        Self {
+            entries,
+            bytes,
+            list: Mutex::new(Vec::new()),
+        }
     }
-    slot
+
+    /// The value for `key` (`bytes` its size): the kept one, else
+    /// `make`'s, kept unless larger than all may be.
+    pub fn get_or_make(&self, key: K, bytes: usize, make: impl FnOnce() -> V) -> Arc<V> {
+        if bytes > self.bytes {
+            return Arc::new(make());
+        }
+        let slot = self.slot(key, bytes);
+        Arc::clone(slot.get_or_init(|| Arc::new(make())))
+    }
+
+    /// The slot for `key`, moved to the back (the most recent); a new one
+    /// pushes out the oldest beyond the limits.
+    fn slot(&self, key: K, bytes: usize) -> Arc<OnceLock<Arc<V>>> {
+        // A poisoned lock only means a thread panicked while holding it;
+        // the list itself is always whole.
+        let mut list = self
+            .list
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        let slot = match list.iter().position(|(k, ..)| *k == key) {
+            Some(i) => list.remove(i).2,
+            None => Arc::new(OnceLock::new()),
+        };
+        list.push((key, bytes, Arc::clone(&slot)));
+        let total = |l: &Vec<Entry<K, V>>| l.iter().map(|e| e.1).sum::<usize>();
+        while list.len() > self.entries || (list.len() > 1 && total(&list) > self.bytes) {
+            list.remove(0);
+        }
+        slot
+    }
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 use crate::catalogue::EffectId;
 use crate::drive::{Drive, DriveKind, GnssSpec, Receiver, Vehicle, VehicleState};
 use crate::imu::{ImuModel, ImuSpec};
-use crate::motion::motion;
+use crate::motion::{motion, Kept};
 use crate::rng::Rng;
 use crate::world::{
     Bump, EncoderSpec, Geometry, Kinematics, MotorParams, Scene, Site, UntrackedMotion,
@@ -489,6 +489,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         geometry: cfg.geometry,
         bump: cfg.bump,
     };
+    let fixed = scene.fixed();
     // A moving base: the vehicle (its attitude at t = 0 is the base's),
     // its receiver, its true motion per IMU sample.
     let origin = core_nav::earth::GeoPoint::from_deg(
@@ -496,6 +497,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         cfg.drive.as_ref().map_or(0.0, |d| d.longitude_deg),
         cfg.site.origin.height_m,
     );
+    let tangent = origin.tangent();
     let mut vehicle = cfg.drive.as_ref().map(|d| {
         Vehicle::new(
             Drive::plan(d.kind, cfg.duration_s, cfg.seed),
@@ -570,9 +572,37 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             accel: r.accel,
         }
     };
+    let kin_at = |tt: f64| match &table {
+        Some(m) => m.at(tt),
+        None => kin_exact(tt),
+    };
+    // On a static base: the truth sample k sees, `j` s of jitter late.
+    let static_truth = |k: u64, j: f64| {
+        let t_true = (k as f64 / cfg.imu_rate_hz - cfg.imu.latency_s + j).max(0.0);
+        let kin = kin_at(t_true);
+        let (w, mut f) = scene.truth_in(&fixed, &kin, t_true);
+        if let Some(l) = cfg.imu.accel_latency_s {
+            let t_a = (k as f64 / cfg.imu_rate_hz - l + j).max(0.0);
+            f = scene.truth_in(&fixed, &kin_at(t_a), t_a).1;
+        }
+        SampleTruth {
+            w,
+            f,
+            rate: kin.rate,
+        }
+    };
+    // Without jitter, every seed's run sees the same truths: made once.
+    let kept = (vehicle.is_none() && cfg.imu.jitter_s == 0.0).then(|| {
+        let bytes = (n_imu as usize).saturating_mul(std::mem::size_of::<SampleTruth>());
+        KEPT_TRUTHS.get_or_make(TruthKey::of(cfg, &scene), bytes, || {
+            (0..n_imu).map(|k| static_truth(k, 0.0)).collect()
+        })
+    });
     let (mut k_imu, mut k_enc) = (0u64, 0u64);
     let mut last_report = 0u64;
-    for tick in 0..=n_ticks {
+    let mut next_tick = 0u64;
+    while next_tick <= n_ticks {
+        let tick = next_tick;
         let t = tick as f64 * PHYS_DT;
         if let Some(v) = vehicle.as_mut() {
             if tick > 0 {
@@ -602,36 +632,40 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 }
             }
         }
-        let kin_at = |tt: f64| match &table {
-            Some(m) => m.at(tt),
-            None => kin_exact(tt),
-        };
         // IMU samples whose truth (with jitter) is now known.
         while k_imu < n_imu {
             let t_k = k_imu as f64 / cfg.imu_rate_hz;
             if t_k + MAX_JITTER_S > t && tick != n_ticks {
                 break;
             }
-            let j = (jitter.normal() * cfg.imu.jitter_s).clamp(-MAX_JITTER_S, MAX_JITTER_S);
-            let t_true = (t_k - cfg.imu.latency_s + j).max(0.0);
-            let truth_at = |tt: f64| match veh_at(&veh_hist, tt) {
-                Some(v) => {
-                    let (w_b, f_b) = v.ideal_b();
-                    let f_b = f_b + crate::drive::vibration_b(tt, v.speed_mps);
-                    scene.truth_on_vehicle(&kin_at(tt), tt, &w_b, &f_b)
-                }
-                None => scene.truth(&kin_at(tt), tt),
+            let j = if kept.is_some() {
+                0.0
+            } else {
+                (jitter.normal() * cfg.imu.jitter_s).clamp(-MAX_JITTER_S, MAX_JITTER_S)
             };
-            let (mut w, mut f) = truth_at(t_true);
-            w += cfg.geometry.axis.unit::<f64>()
-                * cfg
-                    .untracked
-                    .rate(&mut untracked, kin_at(t_true).rate, imu_dt);
-            if let Some(l) = cfg.imu.accel_latency_s {
-                f = truth_at((t_k - l + j).max(0.0)).1;
-            }
+            let t_true = (t_k - cfg.imu.latency_s + j).max(0.0);
+            let on_vehicle = |tt: f64| {
+                let v = veh_at(&veh_hist, tt)?;
+                let (w_b, f_b) = v.ideal_b();
+                let f_b = f_b + crate::drive::vibration_b(tt, v.speed_mps);
+                Some(scene.truth_on_vehicle(&fixed, &kin_at(tt), tt, &w_b, &f_b))
+            };
+            let truth = match (&kept, on_vehicle(t_true)) {
+                (Some(kept), _) => kept.get(k_imu as usize).copied(),
+                (None, Some((w, f))) => Some(SampleTruth {
+                    w,
+                    f: match cfg.imu.accel_latency_s {
+                        Some(l) => on_vehicle((t_k - l + j).max(0.0)).map_or(f, |t| t.1),
+                        None => f,
+                    },
+                    rate: kin_at(t_true).rate,
+                }),
+                (None, None) => None,
+            };
+            let SampleTruth { mut w, f, rate } = truth.unwrap_or_else(|| static_truth(k_imu, j));
+            w += cfg.geometry.axis.unit::<f64>() * cfg.untracked.rate(&mut untracked, rate, imu_dt);
             if let Some(v) = veh_at(&veh_hist, t_k) {
-                let d = origin.ned_to(&v.pos);
+                let d = tangent.ned_to(&v.pos);
                 let [r, p, h] = v.euler_rad;
                 truth_rows.push(TruthRow {
                     t_s: t_k,
@@ -675,6 +709,16 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             last_report = tick;
             progress(tick as f64 / n_ticks as f64);
         }
+        // A vehicle moves every tick; on a static base nothing happens
+        // until the next sample's truth is known or the next encoder read.
+        next_tick = if vehicle.is_some() {
+            tick + 1
+        } else {
+            let due = |t_s: f64| (t_s / PHYS_DT).ceil() as u64;
+            let imu_due = due(k_imu as f64 / cfg.imu_rate_hz + MAX_JITTER_S);
+            let enc_due = due(k_enc as f64 / cfg.encoder_rate_hz);
+            imu_due.min(enc_due).clamp(tick + 1, n_ticks.max(tick + 1))
+        };
     }
     progress(1.0);
     if let Some(d) = &cfg.drive {
@@ -706,6 +750,54 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
     }
     Ok(rec)
 }
+
+/// The truth an IMU sample sees (before the sensor's errors).
+#[derive(Clone, Copy, Debug)]
+struct SampleTruth {
+    /// `w_is_s`, rad/s.
+    w: Vector3<f64>,
+    /// `f_s`, m/s^2.
+    f: Vector3<f64>,
+    /// The table's rate then, rad/s.
+    rate: f64,
+}
+
+/// What a static base's sample truths are made from: the table's motion,
+/// the scene, the sample times.
+#[derive(Clone, Debug, PartialEq)]
+struct TruthKey {
+    ideal: bool,
+    motor: MotorParams,
+    scheme: Scheme,
+    limits: Limits,
+    static_s: f64,
+    duration_s: f64,
+    scene: Scene,
+    latency_s: f64,
+    accel_latency_s: Option<f64>,
+    imu_rate_hz: f64,
+}
+
+impl TruthKey {
+    fn of(cfg: &SimConfig, scene: &Scene) -> Self {
+        Self {
+            ideal: cfg.ideal,
+            motor: cfg.motor.clone(),
+            scheme: cfg.scheme,
+            limits: cfg.limits,
+            static_s: cfg.static_s,
+            duration_s: cfg.duration_s,
+            scene: *scene,
+            latency_s: cfg.imu.latency_s,
+            accel_latency_s: cfg.imu.accel_latency_s,
+            imu_rate_hz: cfg.imu_rate_hz,
+        }
+    }
+}
+
+/// Static-base runs' sample truths without jitter: the last four, up to
+/// 64 MB (56 bytes a sample).
+static KEPT_TRUTHS: Kept<TruthKey, Vec<SampleTruth>> = Kept::new(4, 64 << 20);
 
 /// The vehicle at `t` (s) from the tick history, its rates and forces
 /// linear between ticks; `None` on a static base.

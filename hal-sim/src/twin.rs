@@ -403,14 +403,16 @@ pub fn simulate_like(rec: &Recording, model: &SimModel, seed: u64) -> Result<Rec
     };
     let mut untracked_rng = crate::rng::Rng::new(seed, 41);
     let mut out = rec.clone();
+    let fixed = scene.fixed();
     let mut t_prev = t0 - dt_nominal;
     for (r, (row, src)) in out.imu.iter_mut().zip(&rec.imu).enumerate() {
         let t_true = src.t_s - model.time_offset_s;
         let kin = true_motion(&track, t_true, ec, es);
-        let (mut w, mut f) = scene.truth(&kin, t_true);
+        let (mut w, mut f) = scene.truth_in(&fixed, &kin, t_true);
         if let Some(dt_a) = model.accel_time_offset_s {
             f = scene
-                .truth(
+                .truth_in(
+                    &fixed,
                     &true_motion(&track, t0.max(src.t_s - dt_a), ec, es),
                     src.t_s - dt_a,
                 )

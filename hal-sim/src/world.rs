@@ -119,26 +119,42 @@ impl Geometry {
     /// `c_s_p` at platform angle `theta` (rad): the fixed wobble and the
     /// angle-locked one.
     pub fn c_s_p(&self, theta: f64) -> Matrix3<f64> {
-        self.mount(theta).c_s_p
+        self.mount(self.k_true(), theta, None).c_s_p
     }
 
     /// `c_s_b` at platform angle `theta` (rad).
     pub fn c_s_b(&self, theta: f64) -> Matrix3<f64> {
-        self.mount(theta).c_s_b
+        self.mount(self.k_true(), theta, None).c_s_b
     }
 
-    /// The sensor's mount at platform angle `theta` (rad), each part
-    /// computed once.
-    fn mount(&self, theta: f64) -> Mount {
-        let k_t = self.k_true();
-        let (w, dw) = self.wobble_at(theta);
-        let c_s_p = *Rotation3::from_scaled_axis(self.wobble + w).matrix();
+    /// The sensor's mount at platform angle `theta` (rad) about the true
+    /// axis `k_t` ([`Geometry::k_true`]), each part computed once.
+    /// `still_c_s_p`: `c_s_p` when the mount does not rock with the angle
+    /// ([`Geometry::still_c_s_p`]), made once.
+    fn mount(&self, k_t: Vector3<f64>, theta: f64, still_c_s_p: Option<&Matrix3<f64>>) -> Mount {
+        let (c_s_p, dw) = match still_c_s_p {
+            Some(c) => (*c, Vector3::zeros()),
+            None => {
+                let (w, dw) = self.wobble_at(theta);
+                (*Rotation3::from_scaled_axis(self.wobble + w).matrix(), dw)
+            }
+        };
         Mount {
             k_t,
             c_s_p,
             c_s_b: Rotation3::from_scaled_axis(k_t * theta).matrix() * c_s_p,
             dwobble: dw,
         }
+    }
+
+    /// `c_s_p` when the mount does not rock with the table angle (no
+    /// wobble harmonics): the same at every angle.
+    pub fn still_c_s_p(&self) -> Option<Matrix3<f64>> {
+        self.wobble_harmonics
+            .iter()
+            .flatten()
+            .all(|x| *x == 0.0)
+            .then(|| *Rotation3::from_scaled_axis(self.wobble).matrix())
     }
 
     /// The rate of the sensor on its platform, rad/s in `s` (small
@@ -213,18 +229,44 @@ pub struct Scene {
     pub bump: Option<Bump>,
 }
 
+/// The parts of a [`Scene`] that no sample changes, made once per run
+/// ([`Scene::fixed`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneFixed {
+    /// The true table axis ([`Geometry::k_true`]).
+    k_t: Vector3<f64>,
+    /// `c_n_b`, the base's attitude (transposed).
+    c_n_b: Matrix3<f64>,
+    /// What a body at rest on the site feels.
+    at_rest: core_nav::site::AtRest,
+    /// [`Geometry::still_c_s_p`].
+    still_c_s_p: Option<Matrix3<f64>>,
+}
+
 impl Scene {
     /// `c_b_n`.
     pub fn c_b_n(&self) -> Matrix3<f64> {
         core_nav::site::c_b_n(&self.base)
     }
 
+    /// What [`Scene::truth_in`] needs that no sample changes.
+    pub fn fixed(&self) -> SceneFixed {
+        SceneFixed {
+            k_t: self.geometry.k_true(),
+            c_n_b: self.c_b_n().transpose(),
+            at_rest: self.site.at_rest(),
+            still_c_s_p: self.geometry.still_c_s_p(),
+        }
+    }
+
     /// True `(w_is_s rad/s, f_s m/s^2)` on a moving base: the vehicle's
     /// `(w_ib_b, f_b)` at `t_s` (`drive::VehicleState::ideal_b`) turned into
     /// the sensor on the table at kinematics `k`, the table's own rate and
-    /// lever-arm terms added as on a static base (`site` and `base` unused).
+    /// lever-arm terms added as on a static base (`site` and `base` unused;
+    /// `fx` is [`Scene::fixed`]).
     pub fn truth_on_vehicle(
         &self,
+        fx: &SceneFixed,
         k: &Kinematics,
         t_s: f64,
         w_ib_b: &Vector3<f64>,
@@ -236,7 +278,7 @@ impl Scene {
             c_s_p,
             c_s_b,
             dwobble,
-        } = g.mount(k.theta);
+        } = g.mount(fx.k_t, k.theta, fx.still_c_s_p.as_ref());
         let c_p_s = c_s_p.transpose();
         let c_b_s = c_s_b.transpose();
         let (w_bump, a_bump) = self
@@ -252,20 +294,30 @@ impl Scene {
 
     /// True `(w_is_s rad/s, f_s m/s^2)` for platform kinematics `k` at `t_s`.
     pub fn truth(&self, k: &Kinematics, t_s: f64) -> (Vector3<f64>, Vector3<f64>) {
+        self.truth_in(&self.fixed(), k, t_s)
+    }
+
+    /// [`Scene::truth`] given [`Scene::fixed`] (a run's samples share it).
+    pub fn truth_in(
+        &self,
+        fx: &SceneFixed,
+        k: &Kinematics,
+        t_s: f64,
+    ) -> (Vector3<f64>, Vector3<f64>) {
         let g = &self.geometry;
         let Mount {
             k_t: kt,
             c_s_p,
             c_s_b,
             dwobble,
-        } = g.mount(k.theta);
+        } = g.mount(fx.k_t, k.theta, fx.still_c_s_p.as_ref());
         let c_p_s = c_s_p.transpose();
         let c_b_s = c_s_b.transpose();
-        let c_n_s = c_b_s * self.c_b_n().transpose();
+        let c_n_s = c_b_s * fx.c_n_b;
         let (w_bump, a_bump) = self
             .bump
             .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
-        let (w_ideal, f_ideal) = self.site.ideal_imu(&c_n_s, &(c_p_s * (kt * k.rate)));
+        let (w_ideal, f_ideal) = fx.at_rest.ideal_imu(&c_n_s, &(c_p_s * (kt * k.rate)));
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
         (

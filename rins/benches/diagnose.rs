@@ -10,6 +10,7 @@ use hal_sim::sim::simulate;
 use rins::diagnose::{run, Options};
 
 fn diagnose_1h(c: &mut Criterion) {
+    rins::memory::keep_freed_memory(); // as the rins binary does
     let mut cfg = rins::study::background(
         &rins::study::grade("nav440", None).expect("grade"),
         Axis::Z,

@@ -18,6 +18,7 @@ fn one(seed: u64) -> f64 {
 }
 
 fn montecarlo(c: &mut Criterion) {
+    rins::memory::keep_freed_memory(); // as the rins binary does
     let mut g = c.benchmark_group("montecarlo");
     g.throughput(Throughput::Elements(1));
     g.bench_function("rotary_run_5min_simulate_calibrate_navigate", |b| {

@@ -14,6 +14,7 @@ pub mod demo;
 pub mod diagnose;
 pub mod import;
 pub mod link;
+pub mod memory;
 pub mod nav;
 pub mod outages;
 pub mod plot;

@@ -70,6 +70,7 @@ fn main() -> Result<()> {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    rins::memory::keep_freed_memory();
     let cli = match Cli::from_arg_matches(&signed(Cli::command()).get_matches()) {
         Ok(c) => c,
         Err(e) => e.exit(),

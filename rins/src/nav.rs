@@ -143,6 +143,7 @@ fn navigate_t<T: Real>(
         }
     };
     let origin = GeoPoint::from_deg(m.latitude_deg, 0.0, m.height_m);
+    let tangent = origin.tangent();
     let base = opt
         .base
         .unwrap_or_else(|| Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg));
@@ -176,7 +177,7 @@ fn navigate_t<T: Real>(
             None => Quaternion::from(q_b_n(&s.q_s_n, m.axis, theta).coords.map(|x| x.to_f64())),
         };
         let e = quat_to_euler(&q);
-        let ned = origin.ned_to(&earth.point_at(&s.p_n));
+        let ned = tangent.ned_to(&earth.point_at(&s.p_n));
         let mut hdg = e.heading.to_degrees();
         if hdg < 0.0 {
             hdg += 360.0;

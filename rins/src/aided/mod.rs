@@ -399,6 +399,7 @@ fn navigate_t<T: Real>(
     )
     .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
     let earth = *an.nav().earth();
+    let tangent = earth.origin.tangent();
     let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
     let mut run = AidedRun {
         aligned,
@@ -438,7 +439,7 @@ fn navigate_t<T: Real>(
         let st = *an.nav().state();
         let c_b_n = an.c_b_n(&table(t)).map(|x| x.to_f64());
         let e = quat_to_euler(&dcm_to_quat(&c_b_n));
-        let ned = earth.origin.ned_to(&earth.point_at(&st.p_n));
+        let ned = tangent.ned_to(&earth.point_at(&st.p_n));
         let v_n = f64v(&st.v_n);
         let kf = &an.kf;
         let sig = |i: usize| {
