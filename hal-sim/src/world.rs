@@ -272,23 +272,10 @@ impl Scene {
         w_ib_b: &Vector3<f64>,
         f_b: &Vector3<f64>,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        let g = &self.geometry;
-        let Mount {
-            k_t: kt,
-            c_s_p,
-            c_s_b,
-            dwobble,
-        } = g.mount(fx.k_t, k.theta, fx.still_c_s_p.as_ref());
-        let c_p_s = c_s_p.transpose();
-        let c_b_s = c_s_b.transpose();
-        let (w_bump, a_bump) = self
-            .bump
-            .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
-        let r_p = c_s_p * g.lever_arm_s;
-        let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
+        let t = self.table_terms(fx, k, t_s);
         (
-            c_b_s * (w_ib_b + w_bump) + c_p_s * (kt * k.rate) + dwobble * k.rate,
-            c_b_s * (f_b + a_bump) + c_p_s * a_lever_p,
+            t.c_b_s * (w_ib_b + t.w_bump_b) + t.w_table_s + t.w_wobble_s,
+            t.c_b_s * (f_b + t.a_bump_b) + t.a_lever_s,
         )
     }
 
@@ -304,6 +291,18 @@ impl Scene {
         k: &Kinematics,
         t_s: f64,
     ) -> (Vector3<f64>, Vector3<f64>) {
+        let t = self.table_terms(fx, k, t_s);
+        let c_n_s = t.c_b_s * fx.c_n_b;
+        let (w_ideal, f_ideal) = fx.at_rest.ideal_imu(&c_n_s, &t.w_table_s);
+        (
+            w_ideal + t.c_b_s * t.w_bump_b + t.w_wobble_s,
+            f_ideal + t.a_lever_s + t.c_b_s * t.a_bump_b,
+        )
+    }
+
+    /// What the table and the bump add at kinematics `k` and `t_s`, on a
+    /// static base and a vehicle alike.
+    fn table_terms(&self, fx: &SceneFixed, k: &Kinematics, t_s: f64) -> TableTerms {
         let g = &self.geometry;
         let Mount {
             k_t: kt,
@@ -312,19 +311,37 @@ impl Scene {
             dwobble,
         } = g.mount(fx.k_t, k.theta, fx.still_c_s_p.as_ref());
         let c_p_s = c_s_p.transpose();
-        let c_b_s = c_s_b.transpose();
-        let c_n_s = c_b_s * fx.c_n_b;
-        let (w_bump, a_bump) = self
+        let (w_bump_b, a_bump_b) = self
             .bump
             .map_or((Vector3::zeros(), Vector3::zeros()), |b| b.at(t_s));
-        let (w_ideal, f_ideal) = fx.at_rest.ideal_imu(&c_n_s, &(c_p_s * (kt * k.rate)));
         let r_p = c_s_p * g.lever_arm_s;
         let a_lever_p = kt.cross(&r_p) * k.accel + kt.cross(&kt.cross(&r_p)) * (k.rate * k.rate);
-        (
-            w_ideal + c_b_s * w_bump + dwobble * k.rate,
-            f_ideal + c_p_s * a_lever_p + c_b_s * a_bump,
-        )
+        TableTerms {
+            c_b_s: c_s_b.transpose(),
+            w_table_s: c_p_s * (kt * k.rate),
+            w_wobble_s: dwobble * k.rate,
+            a_lever_s: c_p_s * a_lever_p,
+            w_bump_b,
+            a_bump_b,
+        }
     }
+}
+
+/// [`Scene::table_terms`]: the sensor's attitude on the base and what the
+/// table's turning and the base's bump add.
+struct TableTerms {
+    /// `c_b_s`.
+    c_b_s: Matrix3<f64>,
+    /// The table's rate in `s`, rad/s.
+    w_table_s: Vector3<f64>,
+    /// The angle-locked wobble's rate in `s`, rad/s.
+    w_wobble_s: Vector3<f64>,
+    /// The lever arm's centripetal and tangential acceleration in `s`, m/s^2.
+    a_lever_s: Vector3<f64>,
+    /// The bump's rate in `b`, rad/s.
+    w_bump_b: Vector3<f64>,
+    /// The bump's acceleration in `b`, m/s^2.
+    a_bump_b: Vector3<f64>,
 }
 
 /// DC motor driving the table directly through an H-bridge, and the

@@ -55,12 +55,17 @@ impl Progress {
                 }
                 *last = now;
                 let spent = now.duration_since(self.start).as_secs_f64();
-                let f = (pos as f64 / 1000.0).clamp(1e-6, 1.0);
+                let f = (pos as f64 / 1000.0).clamp(0.0, 1.0);
+                // Under 1 % done, the time left is a guess of a guess.
+                let left = if f >= 0.01 {
+                    format!("about {:.0} s left", spent * (1.0 - f) / f)
+                } else {
+                    "no estimate yet".to_string()
+                };
                 eprintln!(
-                    "{}: {:.0} % after {spent:.0} s, about {:.0} s left",
+                    "{}: {:.0} % after {spent:.0} s, {left}",
                     self.what,
-                    100.0 * f,
-                    spent * (1.0 - f) / f
+                    100.0 * f
                 );
             }
         }
