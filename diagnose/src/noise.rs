@@ -160,31 +160,65 @@ impl Gains {
 /// estimated: returns (loglik, r). The filter runs to its steady state and
 /// then keeps its gain (to 1e-12), so no gains are stored.
 fn loglik(z: &[f64], phi: f64, lambda: f64) -> (f64, f64) {
-    let mut p = prior(phi, lambda);
-    let mut x = 0.0;
-    let (mut sum, mut logdet) = (0.0, 0.0);
-    let mut steady = false;
-    let (mut kk, mut sk, mut lns) = (0.0, 1.0, 0.0);
+    let [one] = logliks(z, [(phi, lambda)]);
+    one
+}
+
+/// [`loglik`] for several (phi, lambda) in one pass over `z`: the filters'
+/// recursions are independent, so the processor overlaps them (each one's
+/// arithmetic is [`loglik`]'s, to the bit).
+fn logliks<const N: usize>(z: &[f64], points: [(f64, f64); N]) -> [(f64, f64); N] {
+    let mut f = points.map(|(phi, lambda)| Filter {
+        phi,
+        lambda,
+        p: prior(phi, lambda),
+        x: 0.0,
+        sum: 0.0,
+        logdet: 0.0,
+        steady: false,
+        kk: 0.0,
+        sk: 1.0,
+        lns: 0.0,
+    });
     for zk in z {
-        if !steady {
-            sk = p + 1.0;
-            kk = p / sk;
-            lns = sk.ln();
-            let pn = phi * phi * p * (1.0 - kk) + lambda;
-            // Steady to 1e-10: the likelihood changes by far less than one
-            // unit over a million blocks.
-            steady = (pn - p).abs() <= 1e-10 * p.max(1e-300);
-            p = pn;
+        for f in f.iter_mut() {
+            if !f.steady {
+                f.sk = f.p + 1.0;
+                f.kk = f.p / f.sk;
+                f.lns = f.sk.ln();
+                let pn = f.phi * f.phi * f.p * (1.0 - f.kk) + f.lambda;
+                // Steady to 1e-10: the likelihood changes by far less than
+                // one unit over a million blocks.
+                f.steady = (pn - f.p).abs() <= 1e-10 * f.p.max(1e-300);
+                f.p = pn;
+            }
+            let e = zk - f.x;
+            f.sum += e * e / f.sk;
+            f.logdet += f.lns;
+            f.x = f.phi * (f.x + f.kk * e);
         }
-        let e = zk - x;
-        sum += e * e / sk;
-        logdet += lns;
-        x = phi * (x + kk * e);
     }
     let n = z.len().max(1) as f64;
-    let r = (sum / n).max(1e-300);
-    let ll = -0.5 * n * (r.ln() + 1.0 + (2.0 * core::f64::consts::PI).ln()) - 0.5 * logdet;
-    (ll, r)
+    f.map(|f| {
+        let r = (f.sum / n).max(1e-300);
+        let ll = -0.5 * n * (r.ln() + 1.0 + (2.0 * core::f64::consts::PI).ln()) - 0.5 * f.logdet;
+        (ll, r)
+    })
+}
+
+/// One filter of [`logliks`]: its model, state and sums.
+#[derive(Clone, Copy)]
+struct Filter {
+    phi: f64,
+    lambda: f64,
+    p: f64,
+    x: f64,
+    sum: f64,
+    logdet: f64,
+    steady: bool,
+    kk: f64,
+    sk: f64,
+    lns: f64,
 }
 
 /// The filter's prior variance of the bias, units of `r`.
@@ -316,9 +350,7 @@ fn fit_plain(z: &[f64], block_s: f64) -> Noise {
             1.0
         }
     };
-    let try_point = |tau: f64, lambda: f64, best: &mut Noise| {
-        let phi = phi_of(tau);
-        let (ll, r) = loglik(z, phi, lambda);
+    let keep = |phi: f64, lambda: f64, ll: f64, r: f64, best: &mut Noise| {
         if ll > best.loglik {
             *best = Noise {
                 block_s,
@@ -331,25 +363,28 @@ fn fit_plain(z: &[f64], block_s: f64) -> Noise {
         }
     };
     for &tau in &taus {
-        for j in 0..=9 {
-            let lambda = 10f64.powi(-9 + j);
-            try_point(tau, lambda, &mut best);
+        let phi = phi_of(tau);
+        let points: [(f64, f64); 10] = core::array::from_fn(|j| (phi, 10f64.powi(j as i32 - 9)));
+        for (&(phi, lambda), (ll, r)) in points.iter().zip(logliks(z, points)) {
+            keep(phi, lambda, ll, r, &mut best);
         }
     }
     if best.lambda > 0.0 {
         // Refine: tenth-decades around the grid point.
         let (t0, l0) = (best.tau_s(), best.lambda);
         for i in -5..=5 {
-            for j in -7..=7 {
-                let tau = if t0.is_finite() {
-                    t0 * 10f64.powf(0.1 * f64::from(i))
-                } else if i == 0 {
-                    f64::INFINITY
-                } else {
-                    continue;
-                };
-                let lambda = l0 * 10f64.powf(0.08 * f64::from(j));
-                try_point(tau.max(2.0 * block_s), lambda, &mut best);
+            let tau = if t0.is_finite() {
+                t0 * 10f64.powf(0.1 * f64::from(i))
+            } else if i == 0 {
+                f64::INFINITY
+            } else {
+                continue;
+            };
+            let phi = phi_of(tau.max(2.0 * block_s));
+            let points: [(f64, f64); 15] =
+                core::array::from_fn(|j| (phi, l0 * 10f64.powf(0.08 * f64::from(j as i32 - 7))));
+            for (&(phi, lambda), (ll, r)) in points.iter().zip(logliks(z, points)) {
+                keep(phi, lambda, ll, r, &mut best);
             }
         }
     }
