@@ -714,7 +714,13 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         next_tick = if vehicle.is_some() {
             tick + 1
         } else {
-            let due = |t_s: f64| (t_s / PHYS_DT).ceil() as u64;
+            // The first tick at or after `t_s` (ceil without the library
+            // call x86-64's baseline needs for it).
+            let due = |t_s: f64| {
+                let x = t_s / PHYS_DT;
+                let c = x as u64;
+                c + u64::from((c as f64) < x)
+            };
             let imu_due = due(k_imu as f64 / cfg.imu_rate_hz + MAX_JITTER_S);
             let enc_due = due(k_enc as f64 / cfg.encoder_rate_hz);
             imu_due.min(enc_due).clamp(tick + 1, n_ticks.max(tick + 1))
