@@ -592,13 +592,37 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
         }
     };
     // Without jitter, every seed's run sees the same truths: made once.
+    // Encoder reading k (the encoder has no random part).
+    let enc_row = |k: u64| {
+        let t_k = k as f64 / cfg.encoder_rate_hz;
+        let angle_rad = if cfg.ideal {
+            cfg.encoder.shown(kin_at(t_k).theta)
+        } else {
+            let th = kin_at((t_k - cfg.encoder.latency_s).max(0.0)).theta;
+            cfg.encoder.angle(th)
+        };
+        TableRow {
+            t_s: t_k,
+            angle_rad,
+        }
+    };
+    let t_last = n_ticks as f64 * PHYS_DT;
     let kept = (vehicle.is_none() && cfg.imu.jitter_s == 0.0).then(|| {
-        let bytes = (n_imu as usize).saturating_mul(std::mem::size_of::<SampleTruth>());
-        KEPT_TRUTHS.get_or_make(TruthKey::of(cfg, &scene), bytes, || {
-            (0..n_imu).map(|k| static_truth(k, 0.0)).collect()
+        let bytes = (n_imu as usize).saturating_mul(std::mem::size_of::<SampleTruth>())
+            + (n_enc as usize).saturating_mul(std::mem::size_of::<TableRow>());
+        KEPT_TRUTHS.get_or_make(TruthKey::of(cfg, &scene), bytes, || StaticTruths {
+            samples: (0..n_imu).map(|k| static_truth(k, 0.0)).collect(),
+            table: (0..n_enc)
+                .map(enc_row)
+                .take_while(|r| r.t_s <= t_last)
+                .collect(),
         })
     });
     let (mut k_imu, mut k_enc) = (0u64, 0u64);
+    if let Some(kept) = &kept {
+        rec.table.extend_from_slice(&kept.table);
+        k_enc = n_enc;
+    }
     let mut last_report = 0u64;
     let mut next_tick = 0u64;
     while next_tick <= n_ticks {
@@ -651,7 +675,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
                 Some(scene.truth_on_vehicle(&fixed, &kin_at(tt), tt, &w_b, &f_b))
             };
             let truth = match (&kept, on_vehicle(t_true)) {
-                (Some(kept), _) => kept.get(k_imu as usize).copied(),
+                (Some(kept), _) => kept.samples.get(k_imu as usize).copied(),
                 (None, Some((w, f))) => Some(SampleTruth {
                     w,
                     f: match cfg.imu.accel_latency_s {
@@ -689,20 +713,11 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             k_imu += 1;
         }
         while k_enc < n_enc {
-            let t_k = k_enc as f64 / cfg.encoder_rate_hz;
-            if t_k > t {
+            let row = enc_row(k_enc);
+            if row.t_s > t {
                 break;
             }
-            let angle_rad = if cfg.ideal {
-                cfg.encoder.shown(kin_at(t_k).theta)
-            } else {
-                let th = kin_at((t_k - cfg.encoder.latency_s).max(0.0)).theta;
-                cfg.encoder.angle(th)
-            };
-            rec.table.push(TableRow {
-                t_s: t_k,
-                angle_rad,
-            });
+            rec.table.push(row);
             k_enc += 1;
         }
         if tick - last_report >= 10_000 {
@@ -768,8 +783,17 @@ struct SampleTruth {
     rate: f64,
 }
 
-/// What a static base's sample truths are made from: the table's motion,
-/// the scene, the sample times.
+/// A static base's truths without jitter: each IMU sample's, and the
+/// encoder's readings (deterministic: the table's motion, quantised).
+struct StaticTruths {
+    /// Per IMU sample.
+    samples: Vec<SampleTruth>,
+    /// The encoder's rows, as the recording stores them.
+    table: Vec<TableRow>,
+}
+
+/// What a static base's truths are made from: the table's motion, the
+/// scene, the sample times, the encoder.
 #[derive(Clone, Debug, PartialEq)]
 struct TruthKey {
     ideal: bool,
@@ -782,6 +806,8 @@ struct TruthKey {
     latency_s: f64,
     accel_latency_s: Option<f64>,
     imu_rate_hz: f64,
+    encoder: EncoderSpec,
+    encoder_rate_hz: f64,
 }
 
 impl TruthKey {
@@ -797,13 +823,15 @@ impl TruthKey {
             latency_s: cfg.imu.latency_s,
             accel_latency_s: cfg.imu.accel_latency_s,
             imu_rate_hz: cfg.imu_rate_hz,
+            encoder: cfg.encoder,
+            encoder_rate_hz: cfg.encoder_rate_hz,
         }
     }
 }
 
-/// Static-base runs' sample truths without jitter: the last four, up to
-/// 64 MB (56 bytes a sample).
-static KEPT_TRUTHS: Kept<TruthKey, Vec<SampleTruth>> = Kept::new(4, 64 << 20);
+/// Static-base runs' truths without jitter: the last four, up to 64 MB
+/// (56 bytes an IMU sample, 16 an encoder reading).
+static KEPT_TRUTHS: Kept<TruthKey, StaticTruths> = Kept::new(4, 64 << 20);
 
 /// The vehicle at `t` (s) from the tick history, its rates and forces
 /// linear between ticks; `None` on a static base.
