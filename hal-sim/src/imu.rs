@@ -387,9 +387,9 @@ fn round(x: f64) -> f64 {
         return x; // whole, infinite or NaN
     }
     let t = x as i64 as f64; // towards zero: x's sign, or zero
-    // Without a branch (a quantised noisy reading's fraction is a coin
-    // toss the processor would guess wrong half the time); the sign from
-    // x, so -0.3 rounds to -0 as f64::round does.
+                             // Without a branch (a quantised noisy reading's fraction is a coin
+                             // toss the processor would guess wrong half the time); the sign from
+                             // x, so -0.3 rounds to -0 as f64::round does.
     let up = f64::from(u8::from((x - t).abs() >= 0.5));
     (t.abs() + up).copysign(x)
 }

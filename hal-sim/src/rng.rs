@@ -110,7 +110,10 @@ impl Rng {
     /// A draw's layer (the low 7 bits) and signed position in it (the top
     /// 53).
     fn layer_and_position(bits: u64) -> (usize, f64) {
-        ((bits & (LAYERS as u64 - 1)) as usize, 2.0 * Self::unit(bits) - 1.0)
+        (
+            (bits & (LAYERS as u64 - 1)) as usize,
+            2.0 * Self::unit(bits) - 1.0,
+        )
     }
 
     /// Standard normal (the ziggurat: a layer from the low 7 bits of one

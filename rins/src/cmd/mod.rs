@@ -148,6 +148,35 @@ pub fn write_file(p: &Path, text: &str) -> Result<()> {
     std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
 }
 
+/// `--shard` refused without `--json`: a shard's runs are what `rins
+/// merge` reads.
+pub fn shard_needs_json(shard: rins::shard::Shard, json: Option<&Path>) -> Result<()> {
+    if shard.n > 1 && json.is_none() {
+        anyhow::bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
+    }
+    Ok(())
+}
+
+/// Writes shard `shard`'s output `out` as JSON to `json` and says so,
+/// with `what` it ran (e.g. "12 runs").
+pub fn write_shard<T: serde::Serialize>(
+    out: &T,
+    shard: rins::shard::Shard,
+    json: Option<&Path>,
+    what: &str,
+) -> Result<()> {
+    if let Some(p) = json {
+        write_file(p, &serde_json::to_string_pretty(out)?)?;
+        println!(
+            "wrote {}: shard {}/{}, {what}; `rins merge` makes the tables",
+            p.display(),
+            shard.k,
+            shard.n
+        );
+    }
+    Ok(())
+}
+
 /// The sensor a `--sensor-out` file starts from: `name` (a shipped name or
 /// a file), else the one the recording's `[imu] model` names, else none.
 pub fn base_sensor(name: Option<&str>, rec: &Recording) -> Result<Option<hal_sim::imu::ImuSpec>> {

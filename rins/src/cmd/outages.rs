@@ -2,7 +2,7 @@
 //! ([`rins::outages`]).
 
 use super::write_file;
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, Result};
 use hal_sim::drive::DriveKind;
 use rins::progress_bar;
 use rins::shard::Shard;
@@ -49,9 +49,7 @@ pub fn run(a: &Args) -> Result<()> {
         .map(|n| Ok(hal_sim::sensor::resolve(n.trim())?))
         .collect::<Result<Vec<_>>>()?;
     let shard = a.shard.unwrap_or(Shard::ALL);
-    if shard.n > 1 && a.json.is_none() {
-        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
-    }
+    super::shard_needs_json(shard, a.json.as_deref())?;
     let pb = progress_bar("outages");
     let s = rins::outages::run(kind, &imus, a.seed, a.drives, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)
@@ -73,18 +71,12 @@ pub fn show(
     json: Option<&std::path::Path>,
     markdown: Option<&std::path::Path>,
 ) -> Result<()> {
+    if s.shard.n > 1 {
+        return super::write_shard(s, s.shard, json, &format!("{} drives", s.runs.len()));
+    }
     if let Some(p) = json {
         write_file(p, &serde_json::to_string_pretty(s)?)?;
         println!("wrote {}", p.display());
-    }
-    if s.shard.n > 1 {
-        println!(
-            "shard {}/{}: {} drives; `rins merge` makes the table",
-            s.shard.k,
-            s.shard.n,
-            s.runs.len()
-        );
-        return Ok(());
     }
     let md = s.markdown();
     print!("{md}");

@@ -49,9 +49,7 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let spec = ImuSpec::by_name(&a.sensor).ok_or_else(|| anyhow!("unknown imu"))?;
     let shard = a.shard.unwrap_or(Shard::ALL);
-    if shard.n > 1 && a.json.is_none() {
-        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
-    }
+    super::shard_needs_json(shard, a.json.as_deref())?;
     let pb = progress_bar("reproduce");
     let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)
@@ -82,18 +80,13 @@ pub fn show(
     markdown: Option<&std::path::Path>,
     plots: Option<&std::path::Path>,
 ) -> Result<()> {
+    if out.shard.n > 1 {
+        let per_cell = out.rows.first().map_or(0, |r| r.runs.len());
+        return super::write_shard(out, out.shard, json, &format!("{per_cell} runs a cell"));
+    }
     if let Some(p) = json {
         write_file(p, &serde_json::to_string_pretty(out)?)?;
         println!("wrote {}", p.display());
-    }
-    if out.shard.n > 1 {
-        println!(
-            "shard {}/{}: {} runs a cell; `rins merge` makes the tables",
-            out.shard.k,
-            out.shard.n,
-            out.rows.first().map_or(0, |r| r.runs.len())
-        );
-        return Ok(());
     }
     print!("{}", repro::text_report(&out.rows, &out.imu, out.runs));
     if let Some(p) = markdown {

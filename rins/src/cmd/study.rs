@@ -1,7 +1,7 @@
 //! `rins study`: the blind study of diagnose ([`rins::study`]).
 
 use super::write_file;
-use anyhow::{bail, Result};
+use anyhow::Result;
 use rins::progress_bar;
 use rins::realnoise::RealNoise;
 use rins::shard::Shard;
@@ -51,9 +51,7 @@ pub struct Args {
 /// Runs `rins study`.
 pub fn run(a: &Args) -> Result<()> {
     let shard = a.shard.unwrap_or(Shard::ALL);
-    if shard.n > 1 && a.json.is_none() {
-        bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
-    }
+    super::shard_needs_json(shard, a.json.as_deref())?;
     let real = if a.real_noise || a.real_noise_file.is_some() {
         let path = a.real_noise_file.clone().unwrap_or_else(|| {
             super::shared_data().join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")
@@ -85,17 +83,8 @@ pub fn run(a: &Args) -> Result<()> {
             n: shard.n,
             results,
         };
-        if let Some(p) = &a.json {
-            write_file(p, &serde_json::to_string_pretty(&out)?)?;
-            println!(
-                "wrote {}: shard {}/{}, {} runs; `rins merge` makes the tables",
-                p.display(),
-                shard.k,
-                shard.n,
-                out.results.len()
-            );
-        }
-        return Ok(());
+        let what = format!("{} runs", out.results.len());
+        return super::write_shard(&out, shard, a.json.as_deref(), &what);
     }
     let s = rins::study::aggregate(&plan, results)?;
     show(&s, a.json.as_deref(), a.markdown.as_deref())
