@@ -19,6 +19,7 @@ pub(super) enum Owner {
 
 /// One channel's design: columns, whitened and physical Grams per held-out
 /// segment (`[X y]^T [X y]`, y last), the noise model.
+#[derive(Clone)]
 pub(super) struct ChannelDesign {
     pub(super) owners: Vec<Owner>,
     pub(super) gram_w: Vec<DMatrix<f64>>,
@@ -40,6 +41,43 @@ impl ChannelDesign {
             rows: vec![0; folds],
             noise: Noise::none(block_s),
             zp: DMatrix::zeros(nb, 1),
+        }
+    }
+
+    /// A recorded channel's design from its physical block means `zp`
+    /// (columns of `owners`, then y) under the noise model `nm`: whitened
+    /// and physical Grams per held-out segment.
+    fn whitened(owners: Vec<Owner>, zp: DMatrix<f64>, nm: Noise, folds: usize) -> Self {
+        let (nb, m) = zp.shape();
+        let g: Gains = nm.gains(nb);
+        let mut zw = DMatrix::<f64>::zeros(nb, m);
+        let mut buf = vec![];
+        let scale = 1.0 / nm.r.max(1e-300).sqrt();
+        // Column-major storage: one column a chunk.
+        for (c, col) in zp.as_slice().chunks(nb.max(1)).enumerate() {
+            g.whiten_into(col, &mut buf);
+            for (r, b) in buf.iter().enumerate().take(nb) {
+                zw[(r, c)] = b * scale;
+            }
+        }
+        let mut gram_w = vec![];
+        let mut gram_p = vec![];
+        let mut rows = vec![];
+        for f in 0..folds {
+            let (a, b) = (f * nb / folds, (f + 1) * nb / folds);
+            let sw = zw.rows(a, b - a);
+            let sp = zp.rows(a, b - a);
+            gram_w.push(sw.transpose() * sw);
+            gram_p.push(sp.transpose() * sp);
+            rows.push(b - a);
+        }
+        Self {
+            owners,
+            gram_w,
+            gram_p,
+            rows,
+            noise: nm,
+            zp,
         }
     }
 }
@@ -162,15 +200,29 @@ impl Design {
                 v.push((Owner::Nominal(j), truth_b[src].clone()));
             }
         }
-        for (ci, c) in cands.iter().enumerate() {
-            for t in c.terms(p).into_iter().filter(|t| p.recorded(t.ch)) {
-                cols[t.ch].push((
-                    Owner::Effect {
-                        cand: ci,
-                        param: t.param,
-                    },
-                    blocks(&t.col),
-                ));
+        // Each candidate's regressors and their block means in parallel (the
+        // full-rate columns are the larger part of a design), then in the
+        // library's order.
+        let per_cand: Vec<Vec<(usize, Owner, Vec<f64>)>> = cands
+            .par_iter()
+            .enumerate()
+            .map(|(ci, c)| {
+                c.terms(p)
+                    .into_iter()
+                    .filter(|t| p.recorded(t.ch))
+                    .map(|t| {
+                        let owner = Owner::Effect {
+                            cand: ci,
+                            param: t.param,
+                        };
+                        (t.ch, owner, blocks(&t.col))
+                    })
+                    .collect()
+            })
+            .collect();
+        for (ch, owner, col) in per_cand.into_iter().flatten() {
+            if let Some(v) = cols.get_mut(ch) {
+                v.push((owner, col));
             }
         }
         let folds = opts.folds.max(2);
@@ -195,44 +247,11 @@ impl Design {
                     noise::fit(res.as_slice(), block_s, quant[ch])
                 }
             };
-            let g: Gains = nm.gains(nb);
-            let m = cc.len() + 1;
-            let mut zw = DMatrix::<f64>::zeros(nb, m);
-            let mut zp = DMatrix::<f64>::zeros(nb, m);
-            let mut buf = vec![];
-            let scale = 1.0 / nm.r.max(1e-300).sqrt();
             // Columns, then y last.
-            for (c, col) in cc
-                .iter()
-                .map(|(_, v)| v.as_slice())
-                .chain([y.as_slice()])
-                .enumerate()
-            {
-                g.whiten_into(col, &mut buf);
-                for r in 0..nb {
-                    zw[(r, c)] = buf[r] * scale;
-                    zp[(r, c)] = col[r];
-                }
-            }
-            let mut gram_w = vec![];
-            let mut gram_p = vec![];
-            let mut rows = vec![];
-            for f in 0..folds {
-                let (a, b) = (f * nb / folds, (f + 1) * nb / folds);
-                let sw = zw.rows(a, b - a);
-                let sp = zp.rows(a, b - a);
-                gram_w.push(sw.transpose() * sw);
-                gram_p.push(sp.transpose() * sp);
-                rows.push(b - a);
-            }
-            ChannelDesign {
-                owners: cc.iter().map(|(o, _)| *o).collect(),
-                gram_w,
-                gram_p,
-                rows,
-                noise: nm,
-                zp,
-            }
+            let zp = DMatrix::from_fn(nb, cc.len() + 1, |r, c| {
+                cc.get(c).map_or(y[r], |col| col.1[r])
+            });
+            ChannelDesign::whitened(cc.iter().map(|(o, _)| *o).collect(), zp, nm, folds)
         };
         // The six channels are independent: in parallel (the noise fit is
         // the larger part of a diagnosis).
@@ -248,6 +267,30 @@ impl Design {
             names,
             folds: opts.folds.max(2),
             quant,
+            unseen,
+        }
+    }
+
+    /// The same columns under other noise models (`noise`, per channel):
+    /// what [`Design::build`] with `Some(noise)` on the same prediction,
+    /// candidates and blocks gives, without re-making the columns.
+    pub(super) fn with_noise(&self, noise: &[Noise; 6]) -> Self {
+        let chans: Vec<ChannelDesign> = self
+            .ch
+            .par_iter()
+            .zip(noise.par_iter())
+            .map(|(cd, nm)| match cd.owners.is_empty() {
+                true => cd.clone(), // not recorded: no columns, no noise
+                false => ChannelDesign::whitened(cd.owners.clone(), cd.zp.clone(), *nm, self.folds),
+            })
+            .collect();
+        let unseen = unseen(&chans, &self.cands);
+        Self {
+            ch: chans,
+            cands: self.cands.clone(),
+            names: self.names.clone(),
+            folds: self.folds,
+            quant: self.quant,
             unseen,
         }
     }

@@ -145,7 +145,8 @@ pub fn run(
     let d1 = Design::build(&p, lib(&p), opts, None);
     let (s1, _) = select(&d1);
     let noise2 = final_noise(&d1, &s1);
-    let mut d = Design::build(&p, lib(&p), opts, Some(&noise2));
+    // The same columns: only the noise model is new.
+    let mut d = d1.with_noise(&noise2);
     let (mut sel, implausible) = select(&d);
     let mut unconfirmed = vec![];
     // A slow finding is confirmed on long blocks (select::confirm_slow):
@@ -217,7 +218,8 @@ pub fn run(
             break;
         };
         time_offset += dt;
-        p = predict(rec, earth_scale, time_offset);
+        // The same encoder reads: the same track.
+        p = predict::predict_on(rec, p.track.clone(), earth_scale, time_offset);
         apply_known(&mut p, model)?;
         d = Design::build(&p, lib(&p), opts, Some(&noise2));
         let set = sel.set.clone();

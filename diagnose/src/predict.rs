@@ -4,6 +4,7 @@
 
 use super::DiagnoseError;
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
+use rayon::prelude::*;
 pub use recording::track::encoder_quantum;
 use recording::track::EncoderTrack;
 use recording::Recording;
@@ -111,15 +112,31 @@ impl Prediction {
     }
 }
 
+/// One sample's prediction: ideal rate and specific force in `s` (rad/s,
+/// m/s^2), the table's (angle, rate, acceleration) (rad, rad/s, rad/s^2),
+/// the accelerometer measurement (the ideal one when gyro-only).
+type Row = (Vector3<f64>, Vector3<f64>, (f64, f64, f64), Vector3<f64>);
+
 /// Predicts the ideal sensor for `rec` (the nominal world: earth rate scaled
 /// by `earth_scale`, gravity, the table's motion about its nominal axis),
 /// with the IMU samples `time_offset_s` late relative to their stamps.
 pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Prediction {
+    predict_on(rec, EncoderTrack::of(rec), earth_scale, time_offset_s)
+}
+
+/// [`predict`] through `track`, the table's motion already made from
+/// `rec`'s encoder reads (`EncoderTrack::of(rec)`; a re-prediction with
+/// another time offset reads the same encoder).
+pub fn predict_on(
+    rec: &Recording,
+    track: EncoderTrack,
+    earth_scale: f64,
+    time_offset_s: f64,
+) -> Prediction {
     let m = &rec.meta;
     let site = m.site();
     let c_b_n = core_nav::site::c_b_n(&m.base());
     let k = Unit::new_normalize(m.axis.unit::<f64>());
-    let track = EncoderTrack::of(rec);
     let temp_recorded = rec.imu.iter().all(|r| r.temp_c.is_some()) && !rec.imu.is_empty();
     let temp0 = rec.imu.first().and_then(|r| r.temp_c).unwrap_or(25.0);
     // The ideal sensor in the base frame (the table at angle 0): the site's
@@ -143,24 +160,34 @@ pub fn predict(rec: &Recording, earth_scale: f64, time_offset_s: f64) -> Predict
         angle_measured: rec.meta.table_source.is_measured(),
         ..Prediction::default()
     };
-    for r in &rec.imu {
-        let m = p.track.at(r.t_s - time_offset_s);
-        let (th, rate, acc) = (m.theta, m.rate, m.accel);
-        let c_s_b: Matrix3<f64> = *Rotation3::from_axis_angle(&k, th).matrix();
-        let c_n_s = (c_b_n * c_s_b).transpose();
-        let (w, f) = model_site.ideal_imu(&c_n_s, &(k.into_inner() * rate));
+    // Each row on its own (the track is only read): in parallel, then
+    // pushed in order.
+    let rows: Vec<Row> = rec
+        .imu
+        .par_iter()
+        .map(|r| {
+            let m = p.track.at(r.t_s - time_offset_s);
+            let (th, rate, acc) = (m.theta, m.rate, m.accel);
+            let c_s_b: Matrix3<f64> = *Rotation3::from_axis_angle(&k, th).matrix();
+            let c_n_s = (c_b_n * c_s_b).transpose();
+            let (w, f) = model_site.ideal_imu(&c_n_s, &(k.into_inner() * rate));
+            let y_f = if rec.gyro_only {
+                f
+            } else {
+                Vector3::from(r.accel_mps2)
+            };
+            (w, f, (th, rate, acc), y_f)
+        })
+        .collect();
+    for (r, (w, f, theta, y_f)) in rec.imu.iter().zip(rows) {
         p.t_s.push(r.t_s);
-        p.w_earth.push(w - k.into_inner() * rate);
+        p.w_earth.push(w - k.into_inner() * theta.1);
         p.w.push(w);
         p.f.push(f);
-        p.theta.push((th, rate, acc));
+        p.theta.push(theta);
         p.dtemp.push(r.temp_c.map_or(0.0, |t| t - temp0));
         p.y_w.push(Vector3::from(r.gyro_radps));
-        p.y_f.push(if rec.gyro_only {
-            f
-        } else {
-            Vector3::from(r.accel_mps2)
-        });
+        p.y_f.push(y_f);
     }
     p
 }
