@@ -21,6 +21,8 @@
 //! shape, corrected linearly to the two reads. Rate and acceleration are the
 //! fitted shape's derivatives.
 
+use rayon::prelude::*;
+
 /// Reads on each side of an interval used by its fit.
 const HALF: usize = 4;
 /// Knot positions tried between two reads.
@@ -91,16 +93,29 @@ pub struct EncoderTrack {
     read_var: f64,
 }
 
-/// Least squares of `rows` (regressors) against `y`: coefficients and the
-/// residual sum of squares (`None` when singular).
-fn lsq<const P: usize>(rows: &[[f64; P]], y: &[f64]) -> Option<([f64; P], f64)> {
+/// A `P x P` matrix and a `P` vector (the normal equations).
+type Normal<const P: usize> = (nalgebra::SMatrix<f64, P, P>, nalgebra::SVector<f64, P>);
+
+/// The normal equations `(A^T A, A^T y)` of `rows` (regressors, the rows of
+/// `A`) against `y`, summed row by row.
+fn normal<const P: usize>(rows: &[[f64; P]], y: &[f64]) -> Normal<P> {
     let mut ata = nalgebra::SMatrix::<f64, P, P>::zeros();
     let mut aty = nalgebra::SVector::<f64, P>::zeros();
     for (r, yv) in rows.iter().zip(y) {
-        let v = nalgebra::SVector::<f64, P>::from_row_slice(r);
-        ata += v * v.transpose();
-        aty += v * *yv;
+        for (i, ri) in r.iter().enumerate() {
+            for (j, rj) in r.iter().enumerate() {
+                ata[(i, j)] += ri * rj;
+            }
+            aty[i] += ri * yv;
+        }
     }
+    (ata, aty)
+}
+
+/// Least squares from the normal equations `ne` of `rows` against `y`:
+/// coefficients and the residual sum of squares (`None` when singular).
+fn solve<const P: usize>(ne: Normal<P>, rows: &[[f64; P]], y: &[f64]) -> Option<([f64; P], f64)> {
+    let (ata, aty) = ne;
     let sol = ata.cholesky()?.solve(&aty);
     let rss = rows
         .iter()
@@ -115,6 +130,27 @@ fn lsq<const P: usize>(rows: &[[f64; P]], y: &[f64]) -> Option<([f64; P], f64)> 
     Some((out, rss))
 }
 
+/// The normal equations of a quadratic with one knot: the quadratic's
+/// (`quad`, from the same reads) bordered by the knot's column, the last
+/// of each of `rows`, summed row by row as [`normal`] sums them.
+fn bordered(quad: &Normal<3>, rows: &[[f64; 4]], y: &[f64]) -> Normal<4> {
+    let mut ata = nalgebra::SMatrix::<f64, 4, 4>::zeros();
+    let mut aty = nalgebra::SVector::<f64, 4>::zeros();
+    ata.fixed_view_mut::<3, 3>(0, 0).copy_from(&quad.0);
+    aty.fixed_rows_mut::<3>(0).copy_from(&quad.1);
+    for (r, yv) in rows.iter().zip(y) {
+        let e2 = r[3];
+        for (i, ri) in r.iter().enumerate() {
+            ata[(i, 3)] += ri * e2;
+        }
+        aty[3] += e2 * yv;
+    }
+    for i in 0..3 {
+        ata[(3, i)] = ata[(i, 3)];
+    }
+    (ata, aty)
+}
+
 impl EncoderTrack {
     /// The track through reads at times `t_s` (s, increasing) with angles
     /// `angle_rad` (rad, unwrapped), whose quantum is `quantum_rad` (0 for
@@ -125,12 +161,17 @@ impl EncoderTrack {
         let mut tr = Self {
             t: t_s[..n].to_vec(),
             a: angle_rad[..n].to_vec(),
-            pieces: Vec::with_capacity(n.saturating_sub(1)),
+            pieces: vec![],
             unfollowed: vec![],
             read_var,
         };
-        for i in 0..n.saturating_sub(1) {
-            let (p, ok) = tr.fit_interval(i);
+        // Each interval's fit reads only the reads: in parallel (a stepper's
+        // every interval searches the knot grid), then in order.
+        let fits: Vec<(Piece, bool)> = (0..n.saturating_sub(1))
+            .into_par_iter()
+            .map(|i| tr.fit_interval(i))
+            .collect();
+        for (i, (p, ok)) in fits.into_iter().enumerate() {
             if !ok {
                 match tr.unfollowed.last_mut() {
                     Some(last) if (last.1 - tr.t[i]).abs() < 1e-9 => last.1 = tr.t[i + 1],
@@ -150,8 +191,14 @@ impl EncoderTrack {
         let hi = (lo + 2 * HALF).min(n);
         let t_ref = 0.5 * (self.t[i] + self.t[(i + 1).min(n - 1)]);
         let ts = &self.t[lo..hi];
-        let ys: Vec<f64> = self.a[lo..hi].iter().map(|a| a - self.a[i]).collect();
         let y0 = self.a[i];
+        // The window's reads relative to read i, on the stack (at most
+        // 2 HALF of them).
+        let mut ys_buf = [0.0; 2 * HALF];
+        for (y, a) in ys_buf.iter_mut().zip(&self.a[lo..hi]) {
+            *y = a - y0;
+        }
+        let ys = &ys_buf[..ts.len().min(2 * HALF)];
         let finish = |c: [f64; 3], knot: Option<(f64, f64)>| {
             let mut p = Piece {
                 t_ref,
@@ -177,14 +224,14 @@ impl EncoderTrack {
                 true,
             );
         }
-        let quad: Vec<[f64; 3]> = ts
-            .iter()
-            .map(|t| {
-                let d = t - t_ref;
-                [1.0, d, d * d]
-            })
-            .collect();
-        let Some((c, rss)) = lsq(&quad, &ys) else {
+        let mut quad = [[0.0; 3]; 2 * HALF];
+        for (q, t) in quad.iter_mut().zip(ts) {
+            let d = t - t_ref;
+            *q = [1.0, d, d * d];
+        }
+        let quad = &quad[..ys.len()];
+        let quad_ne = normal(quad, ys);
+        let Some((c, rss)) = solve(quad_ne, quad, ys) else {
             return (finish([0.0; 3], None), false);
         };
         let dof = ts.len().saturating_sub(3) as f64;
@@ -204,15 +251,14 @@ impl EncoderTrack {
         for w in ts.windows(2) {
             for g in 0..KNOT_GRID {
                 let tau = w[0] + (w[1] - w[0]) * (g as f64 + 0.5) / KNOT_GRID as f64;
-                let rows: Vec<[f64; 4]> = ts
-                    .iter()
-                    .map(|t| {
-                        let d = t - t_ref;
-                        let e = (t - tau).max(0.0);
-                        [1.0, d, d * d, e * e]
-                    })
-                    .collect();
-                if let Some((ck, r)) = lsq(&rows, &ys) {
+                let mut rows = [[0.0; 4]; 2 * HALF];
+                for (row, t) in rows.iter_mut().zip(ts) {
+                    let d = t - t_ref;
+                    let e = (t - tau).max(0.0);
+                    *row = [1.0, d, d * d, e * e];
+                }
+                let rows = &rows[..ys.len()];
+                if let Some((ck, r)) = solve(bordered(&quad_ne, rows, ys), rows, ys) {
                     if best.is_none_or(|b| r < b.1) {
                         best = Some((ck, r, tau));
                     }
