@@ -62,6 +62,10 @@ fn signed(cmd: clap::Command) -> clap::Command {
     cmd.allow_negative_numbers(true).mut_subcommands(signed)
 }
 
+/// Help fits 80 columns whatever the terminal (a narrower one wraps it
+/// narrower still).
+pub const HELP_COLUMNS: usize = 80;
+
 fn main() -> Result<()> {
     // Like any Unix filter: a closed pipe (`rins allan ... | head`) ends the
     // process quietly instead of a failed print.
@@ -71,7 +75,9 @@ fn main() -> Result<()> {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
     rins::memory::keep_freed_memory();
-    let cli = match Cli::from_arg_matches(&signed(Cli::command()).get_matches()) {
+    let cli = match Cli::from_arg_matches(
+        &signed(Cli::command().max_term_width(HELP_COLUMNS)).get_matches(),
+    ) {
         Ok(c) => c,
         Err(e) => e.exit(),
     };

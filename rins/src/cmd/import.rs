@@ -17,9 +17,17 @@ pub struct Args {
 pub enum From {
     /// An RTKLIB `.pos` solution plus an IMU CSV described by a column map
     /// (rins-columns/1), its clock through an RTKLIB `.tag` file.
+    #[command(
+        override_usage = "rins import rtklib --pos <POS> --imu-file <IMU_FILE> \\
+         --columns <COLUMNS> --sensor <SENSOR> --out <OUT> [OPTIONS]"
+    )]
     Rtklib(RtklibArgs),
     /// KF-GINS text files: IMU increments, GNSS positions with sigmas, an
     /// optional reference (its start attitude becomes [base]).
+    #[command(
+        override_usage = "rins import kf-gins --imu-file <IMU_FILE> --gnss <GNSS> \\
+         --sensor <SENSOR> --out <OUT> [OPTIONS]"
+    )]
     KfGins(KfGinsArgs),
 }
 

@@ -72,7 +72,6 @@ pub struct Args {
         long,
         value_name = "FIXED,FLOAT,DGNSS,SINGLE",
         value_delimiter = ',',
-        num_args = 4,
         requires = "gnss"
     )]
     pub gnss_floor_m: Option<Vec<f64>>,
