@@ -162,30 +162,33 @@ pub fn truth_at(rows: &[TruthRow], t_s: f64) -> Option<TruthRow> {
     })
 }
 
-/// Checks that `truth.csv`'s rows span `[t0_s, t1_s]` (a run's first and
-/// last navigated times), so that every error is measured against the
-/// truth, never against a missing or extrapolated one.
+/// Checks that `truth.csv`'s rows overlap `[t0_s, t1_s]` (a run's first
+/// and last navigated times): errors are measured over the overlap only
+/// (a reference solution usually ends before the logger), never against a
+/// missing or extrapolated truth. Returns the overlap, s.
 ///
 /// # Errors
-/// The span the file covers and the run's, naming the file.
-pub fn truth_covers(
+/// No rows, or rows that share no time with the run: the span the file
+/// covers and the run's, naming the file.
+pub fn truth_overlap(
     rows: &[TruthRow],
     t0_s: f64,
     t1_s: f64,
     path: &Path,
-) -> Result<(), RecordingError> {
+) -> Result<[f64; 2], RecordingError> {
     let (first, last) = match (rows.first(), rows.last()) {
         (Some(f), Some(l)) => (f.t_s, l.t_s),
         _ => return Err(crate::err(path, None, "no truth rows")),
     };
-    if first <= t0_s && last >= t1_s {
-        return Ok(());
+    let (a, b) = (first.max(t0_s), last.min(t1_s));
+    if a < b {
+        return Ok([a, b]);
     }
     Err(crate::err(
         path,
         None,
         format!(
-            "the truth covers {first:.3} s to {last:.3} s, the run {t0_s:.3} s to {t1_s:.3} s: errors would be measured against no truth"
+            "the truth covers {first:.3} s to {last:.3} s, the run {t0_s:.3} s to {t1_s:.3} s: no time in common to measure errors over"
         ),
     ))
 }
@@ -618,13 +621,15 @@ mod tests {
     }
 
     #[test]
-    fn no_truth_outside_the_rows_and_a_short_file_is_named() {
+    fn no_truth_outside_the_rows_and_a_file_with_no_time_in_common_is_named() {
         let rows = [row(10.0, 0.0, 0.0), row(11.0, 1.0, 0.0)];
         assert!(truth_at(&rows, 9.99).is_none());
         assert!(truth_at(&rows, 11.01).is_none());
         let p = Path::new("run/truth.csv");
-        assert!(truth_covers(&rows, 10.0, 11.0, p).is_ok());
-        let e = truth_covers(&rows, 9.0, 11.0, p).unwrap_err().to_string();
+        assert_eq!(truth_overlap(&rows, 10.0, 11.0, p), Ok([10.0, 11.0]));
+        // A truth that ends before the log: the overlap.
+        assert_eq!(truth_overlap(&rows, 9.0, 14.0, p), Ok([10.0, 11.0]));
+        let e = truth_overlap(&rows, 11.5, 14.0, p).unwrap_err().to_string();
         assert!(e.contains("run/truth.csv") && e.contains("10.000 s"), "{e}");
     }
 }

@@ -159,10 +159,10 @@ fn demo_runs_and_writes_its_plots() {
 }
 
 #[test]
-fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run() {
-    // A 30 s drive: navigated with its plots; then its truth.csv cut at
-    // 20 s: an error naming the file and both spans, not errors measured
-    // against nothing.
+fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_shares_no_time_with_the_run() {
+    // A 30 s drive: navigated with its plots; then its truth.csv moved
+    // past the run: an error naming the file and both spans, not errors
+    // measured against nothing (a truth that ends early: cli_options.rs).
     let dir = std::env::temp_dir().join(format!("rins-cli-truth-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let rec = dir.join("rec");
@@ -188,16 +188,18 @@ fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run
     }
     let truth = rec.join("truth.csv");
     let text = std::fs::read_to_string(&truth).unwrap();
-    let cut: Vec<&str> = text
+    // A truth that shares no time with the run (every row 100 s later).
+    let late: Vec<String> = text
         .lines()
-        .filter(|l| {
-            l.split(',')
-                .next()
-                .and_then(|t| t.parse::<f64>().ok())
-                .is_none_or(|t| t <= 20.0)
+        .map(|l| match l.split_once(',') {
+            Some((t, rest)) => match t.parse::<f64>() {
+                Ok(t) => format!("{:.3},{rest}", t + 100.0),
+                Err(_) => l.to_string(),
+            },
+            None => l.to_string(),
         })
         .collect();
-    std::fs::write(&truth, cut.join("\n") + "\n").unwrap();
+    std::fs::write(&truth, late.join("\n") + "\n").unwrap();
     let o = rins(&[
         "navigate",
         &s(&rec),
@@ -207,6 +209,9 @@ fn navigate_gnss_draws_its_plots_and_refuses_a_truth_that_does_not_cover_the_run
     ]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("truth.csv") && err.contains("covers"), "{err}");
+    assert!(
+        err.contains("truth.csv") && err.contains("covers") && err.contains("no time in common"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -28,6 +28,7 @@ use crate::nav::TrajRow;
 pub mod align;
 pub mod offset;
 mod plots;
+pub mod span;
 mod summary;
 pub use plots::{fixes_en, fixless, plots};
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};

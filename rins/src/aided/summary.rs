@@ -10,6 +10,12 @@ pub struct AidedSummary {
     /// What the errors are measured against: "truth" (truth.csv),
     /// "receiver" (a real log's own fixes), "none".
     pub reference: &'static str,
+    /// The part of the run the reference covers (first and last row with
+    /// a reference), s: a truth that ends before the log measures the
+    /// errors over the overlap only.
+    pub reference_span_s: Option<[f64; 2]>,
+    /// The run's first and last navigated times, s.
+    pub run_span_s: Option<[f64; 2]>,
     /// Horizontal error rms while fixes arrive, m (with truth).
     pub h_rms_with_gnss_m: Option<f64>,
     /// Per GNSS gap longer than 2 fix intervals: start s, length s,
@@ -169,6 +175,18 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         (true, false) => "receiver",
         (true, true) => "none",
     };
+    let covered = |r: &&super::AidedRow| recording::moving::truth_at(truth, r.traj.t_s).is_some();
+    s.reference_span_s = run
+        .rows
+        .iter()
+        .find(covered)
+        .zip(run.rows.iter().rev().find(covered))
+        .map(|(a, b)| [a.traj.t_s, b.traj.t_s]);
+    s.run_span_s = run
+        .rows
+        .first()
+        .zip(run.rows.last())
+        .map(|(a, b)| [a.traj.t_s, b.traj.t_s]);
     for &(a, l) in &run.outages_cut {
         let inside: Vec<usize> = (0..run.rows.len())
             .filter(|i| run.rows[*i].traj.t_s >= a && run.rows[*i].traj.t_s < a + l)
@@ -256,8 +274,14 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
 impl AidedSummary {
     /// For a person.
     pub fn text(&self) -> String {
+        let over = match (self.reference_span_s, self.run_span_s) {
+            (Some([a, b]), Some([r0, r1])) if a > r0 + 0.5 || b < r1 - 0.5 => format!(
+                " over {a:.1}-{b:.1} s (of the run's {r0:.1}-{r1:.1} s: the rest has no reference)"
+            ),
+            _ => String::new(),
+        };
         let mut o = format!(
-            "errors against: {}\n",
+            "errors against: {}{over}\n",
             match self.reference {
                 "truth" => "truth.csv",
                 "receiver" =>

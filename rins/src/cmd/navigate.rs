@@ -20,12 +20,14 @@ pub struct Args {
     #[arg(long)]
     pub keep_implausible: bool,
     /// Gyro calibration (rins-calibration/1, from `rins calibrate --json`).
-    #[arg(long)]
+    /// Not with --gnss: the aided filter estimates the gyro errors itself.
+    #[arg(long, conflicts_with = "gnss")]
     pub calibration: Option<PathBuf>,
     /// Output directory: trajectory.csv and plots.
     #[arg(long)]
     pub out: PathBuf,
-    /// Start navigating at this time, s (default: the first sample).
+    /// Start navigating at this time, s (default: the first sample). With
+    /// --gnss the filter starts at rest there: a moment the vehicle stands.
     #[arg(long, default_value_t = 0.0)]
     pub start_s: f64,
     /// Stop at this time, s.
@@ -35,7 +37,8 @@ pub struct Args {
     #[arg(long)]
     pub f32: bool,
     /// Hold the height (long static runs: the vertical channel diverges).
-    #[arg(long)]
+    /// Not with --gnss: the fixes' heights hold it.
+    #[arg(long, conflicts_with = "gnss")]
     pub hold_height: bool,
     /// Start from the base attitude in meta.toml instead of aligning on
     /// the still start (levelling; gyrocompassing where the gyros resolve
@@ -55,9 +58,10 @@ pub struct Args {
     pub no_zupt: bool,
     /// The sensor profile the filter's noise model comes from (default:
     /// the one named by the recording's `[imu] model`).
-    /// A shipped profile's name or a sensor file (`rins-sensor/1`: its
-    /// noise, mounting and antenna lever arm).
-    /// Without --gnss: the alignment's sigmas come from it.
+    /// A shipped profile's name or a sensor file (`rins-sensor/1`): its
+    /// noise, and with --gnss its antenna lever arm (over meta.toml's).
+    /// Its mounting is not applied again: `rins import` wrote the samples
+    /// in the base frame. Without --gnss: the alignment's sigmas.
     #[arg(long = "sensor", alias = "imu-profile")]
     pub sensor: Option<String>,
     /// Cut a GNSS outage into the run, START:LENGTH in s (repeatable): the
@@ -120,11 +124,15 @@ fn check_span(a: &Args, rec: &recording::Recording) -> Result<()> {
     }
     for o in &a.gnss_outages {
         let (start, len) = hal_sim::drive::parse_outage(o).map_err(|e| anyhow::anyhow!(e))?;
-        if start + len > t1 {
+        let last = a.end_s.map_or(t1, |e| e.min(t1));
+        if start + len > last {
             bail!(
-                "--gnss-outage {o} ends at {} s, past the recording's last sample ({t1} s)",
+                "--gnss-outage {o} ends at {} s, past the run's last sample ({last} s: --end-s or the recording's)",
                 start + len
             );
+        }
+        if start < a.start_s {
+            bail!("--gnss-outage {o} starts before --start-s {}", a.start_s);
         }
     }
     Ok(())
@@ -284,14 +292,37 @@ pub fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
+/// The sensor file's antenna lever arm over meta.toml's, said when they
+/// differ.
+fn antenna_from_sensor(rec: &mut recording::Recording, profile: &hal_sim::imu::ImuSpec) {
+    let Some(lever) = profile.mounting.antenna_b_m else {
+        return;
+    };
+    if let Some(g) = rec.moving.as_mut().and_then(|m| m.gnss_meta.as_mut()) {
+        if g.antenna_b_m != lever {
+            println!(
+                "antenna lever arm {lever:?} m from the sensor file (meta.toml says {:?})",
+                g.antenna_b_m
+            );
+            g.antenna_b_m = lever;
+        }
+    }
+}
+
 /// `rins navigate --gnss`.
 fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
+    let mut rec = rins::aided::span::cut(rec, a.start_s, a.end_s)?;
+    let profile = rins::aided::profile(&rec, a.sensor.as_deref())?;
+    antenna_from_sensor(&mut rec, &profile);
+    let rec = &rec;
+    let (Some(first), Some(last)) = (rec.imu.first(), rec.imu.last()) else {
+        bail!("no IMU sample between --start-s and --end-s");
+    };
     let truth = rec.moving.as_ref().and_then(|m| m.truth.as_deref());
-    if let (Some(truth), Some(first), Some(last)) = (truth, rec.imu.first(), rec.imu.last()) {
-        recording::moving::truth_covers(truth, first.t_s, last.t_s, &a.rec.join("truth.csv"))
+    if let Some(truth) = truth {
+        recording::moving::truth_overlap(truth, first.t_s, last.t_s, &a.rec.join("truth.csv"))
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    let profile = rins::aided::profile(rec, a.sensor.as_deref())?;
     let opt = rins::aided::AidedOptions {
         profile,
         zupt: !a.no_zupt,
@@ -310,7 +341,10 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
                 dgnss_m,
                 single_m,
             },
-            Some(v) => bail!("--gnss-floor-m takes four values, got {}", v.len()),
+            Some(v) => bail!(
+                "--gnss-floor-m takes four values (RTK fixed, RTK float, DGNSS, single point, m, comma-separated), got {}",
+                v.len()
+            ),
         },
         gnss_velocity: !a.gnss_position_only,
         time_offset_s: a.time_offset_s,

@@ -81,8 +81,14 @@ pub struct Args {
     pub lon_deg: f64,
     /// Re-simulate this recording's own run (its sample times, encoder
     /// reads, temperatures, site and base) with the sensor of `--sim-model`:
-    /// its twin. The scheme, site and sensor flags do not apply.
-    #[arg(long, value_name = "REC", requires = "sim_model", conflicts_with_all = ["ideal", "effects", "list_effects"])]
+    /// its twin. The scheme, site, sensor and drive flags are refused with
+    /// it (the recording gives them); --seed and --out apply.
+    #[arg(long, value_name = "REC", requires = "sim_model", conflicts_with_all = [
+        "ideal", "effects", "list_effects", "sensor", "scheme", "axis", "rate_dps",
+        "duration_s", "static_s", "lat_deg", "height_m", "heading_deg", "pitch_deg",
+        "roll_deg", "gravity_mps2", "turns", "positions", "dwell_s", "drive",
+        "gnss_outages", "lon_deg",
+    ])]
     pub like: Option<PathBuf>,
     /// The sensor model for `--like` (`rins-sim-model/1` TOML, as `rins
     /// diagnose --sim-model` writes it).
