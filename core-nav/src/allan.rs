@@ -260,6 +260,17 @@ pub struct NoiseFit {
     /// the points' taus) over 0.664 (IEEE Std 952: the floor of a flicker
     /// bias is 0.664 B), the one definition every tool reports.
     pub bias_instability: f64,
+    /// Whether the points show the floor `bias_instability` comes from:
+    /// the fitted curve's minimum lies before the longest tau, or the fit
+    /// holds a flicker term (a flat stretch). Otherwise the curve still
+    /// falls at the longest tau and `bias_instability` is only an upper
+    /// bound: a term the data cannot support, never to be reported as
+    /// measured.
+    pub floor_seen: bool,
+    /// The longest averaging time the points reach, s.
+    pub tau_max_s: f64,
+    /// The averaging time where the fitted curve is lowest, s.
+    pub floor_tau_s: f64,
 }
 
 /// `(2 ln 2 / pi)`: a flicker coefficient's Allan variance.
@@ -429,16 +440,22 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
         gm_sigma: libm::sqrt(v_gm),
         gm_tau_s: t,
         bias_instability: 0.0,
+        floor_seen: false,
+        tau_max_s: hi,
+        floor_tau_s: hi,
     };
-    let floor = pts
+    // The floor and where it lies (the last of equal minima).
+    let (floor, at) = pts
         .iter()
-        .map(|p| fit.adev_at(p.tau_s))
-        .fold(f64::INFINITY, f64::min);
+        .map(|p| (fit.adev_at(p.tau_s), p.tau_s))
+        .fold((f64::INFINITY, 0.0), |b, x| if x.0 <= b.0 { x } else { b });
     fit.bias_instability = if floor.is_finite() {
         floor / FLOOR_OVER_B
     } else {
         0.0
     };
+    fit.floor_seen = floor.is_finite() && (at < hi || fit.flicker > 0.0);
+    fit.floor_tau_s = at;
     Some(fit)
 }
 
@@ -481,6 +498,48 @@ mod tests {
         assert_eq!(one, oadev(&y, 0.01, 3).unwrap());
         // A segment shorter than 2m adds nothing; none long enough: None.
         assert_eq!(oadev_segments(&y, 0.01, 300, &[0..500, 500..1000]), None);
+    }
+
+    /// Points on a model curve at octave taus from `tau0` (edf 100 each).
+    fn curve(f: &NoiseFit, tau0: f64, octaves: u32) -> Vec<AdevPoint> {
+        (0..octaves)
+            .map(|k| {
+                let m = 1usize << k;
+                let tau_s = tau0 * m as f64;
+                AdevPoint {
+                    m,
+                    tau_s,
+                    adev: f.adev_at(tau_s),
+                    edf: 100.0,
+                    terms: 1000,
+                    lo: 0.0,
+                    hi: 0.0,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_floor_is_measured_only_where_the_taus_reach_it() {
+        // White noise 1e-3 and a flicker coefficient 1e-4 (its floor
+        // 0.664e-4): the white curve meets the floor near 100 s.
+        let truth = NoiseFit {
+            white: 1e-3,
+            flicker: 1e-4,
+            ..NoiseFit::default()
+        };
+        // 0.01-0.04 s (three octaves, a bursty log's gap-free pieces): the
+        // curve still falls; the floor is not seen.
+        let short = fit_noise(&curve(&truth, 0.01, 3)).unwrap();
+        assert!(!short.floor_seen, "{short:?}");
+        assert!((short.tau_max_s - 0.04).abs() < 1e-12);
+        // 0.01 s to 0.01 x 2^19 = 5243 s: the floor, within 5 % of B.
+        let long = fit_noise(&curve(&truth, 0.01, 20)).unwrap();
+        assert!(long.floor_seen, "{long:?}");
+        assert!(
+            (long.bias_instability / 1e-4 - 1.0).abs() < 0.05,
+            "{long:?}"
+        );
     }
 
     #[test]

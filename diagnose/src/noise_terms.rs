@@ -45,16 +45,29 @@ pub fn fit_channel(
 }
 
 /// One channel's noise terms as a person reads them, in the book's units
-/// (gyro: deg/sqrt(h), deg/h; accelerometer: ug/sqrt(Hz), ug).
+/// (gyro: deg/sqrt(h), deg/h; accelerometer: ug/sqrt(Hz), ug). A term the
+/// curve cannot support is said to be not measured, never printed as a
+/// number: white noise the fit did not hold, a floor the averaging times
+/// do not reach (its bound given as such).
 pub fn describe(channel: usize, f: &NoiseFit) -> String {
     let gyro = channel < 3;
     let ((dens, du), (level, lu)) = (units::density(gyro), units::level(gyro));
-    let mut s = format!(
-        "white {:.3} +- {:.3} {du}, bias instability {:.2} {lu}",
-        f.white * dens,
-        f.white_sigma * dens,
-        f.bias_instability * level
-    );
+    let mut s = match f.white > 0.0 {
+        true => format!(
+            "white {:.3} +- {:.3} {du}",
+            f.white * dens,
+            f.white_sigma * dens
+        ),
+        false => "white noise not measured (not in the fit)".into(),
+    };
+    s += &match f.floor_seen {
+        true => format!(", bias instability {:.2} {lu}", f.bias_instability * level),
+        false => format!(
+            ", bias instability not measured (the curve still falls at {:.3} s, its longest averaging time: below {:.2} {lu})",
+            f.tau_max_s,
+            f.bias_instability * level
+        ),
+    };
     if f.gm_sigma > 0.0 {
         s += &format!(
             ", Gauss-Markov {:.2} {lu} over {:.0} s",

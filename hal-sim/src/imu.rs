@@ -118,6 +118,10 @@ pub struct ImuSpec {
     pub temp: TempSpec,
     /// How the IMU sits on its base (identity for the simulator's).
     pub mounting: crate::sensor::Mounting,
+    /// The terms the sensor file says are unknown (`table.key`, sorted:
+    /// [`crate::sensor::terms`]); they hold zero here, and a command that
+    /// needs one refuses ([`ImuSpec::require`]).
+    pub unknown: Vec<String>,
 }
 
 impl ImuSpec {
@@ -130,13 +134,39 @@ impl ImuSpec {
             .flatten()
     }
 
+    /// The terms of `terms` this sensor does not know.
+    pub fn unknown_of<'a>(&self, terms: &[&'a str]) -> Vec<&'a str> {
+        terms
+            .iter()
+            .copied()
+            .filter(|t| self.unknown.iter().any(|u| u == t))
+            .collect()
+    }
+
+    /// Refuses a sensor that does not know a term `what` needs.
+    ///
+    /// # Errors
+    /// The unknown terms, named, with what gives them.
+    pub fn require(&self, terms: &[&str], what: &str) -> Result<(), crate::sensor::SensorError> {
+        let missing = self.unknown_of(terms);
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(crate::sensor::SensorError(format!(
+            "sensor {:?}: {what} needs {}, which its file says are unknown: measure them (rins allan, rins diagnose --sensor-out) or give them (a base = shipped sensor, or the numbers)",
+            self.name,
+            missing.join(", ")
+        )))
+    }
+
     /// The profile whose `model` text is `model` (a simulated recording's
-    /// `[imu] model`), or whose name it is.
+    /// `[imu] model`), or whose name it is, either in any case
+    /// (`ADIS16405` is `adis16405`).
     pub fn by_model(model: &str) -> Option<Self> {
         Self::NAMES
             .iter()
             .filter_map(|n| Self::by_name(n))
-            .find(|p| p.model == model || p.name == model)
+            .find(|p| p.model.eq_ignore_ascii_case(model) || p.name.eq_ignore_ascii_case(model))
     }
 
     /// The shipped profiles' names.

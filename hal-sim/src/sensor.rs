@@ -1,4 +1,4 @@
-//! Sensor files (`rins-sensor/1`, TOML): a unit's error budget in the
+//! Sensor files (`rins-sensor/2`, and `/1` read as before; TOML): a unit's error budget in the
 //! units datasheets and Allan plots give, its mounting on the base and the
 //! antenna's lever arm. The shipped profiles are such files
 //! (`sensors/*.toml`, compiled in); a user's own file is read by path.
@@ -23,8 +23,13 @@ pub const G0: f64 = 9.806_65;
 /// instability (the Allan floor) is this fraction of the process's sigma.
 pub const ALLAN_PEAK_PER_GM_SIGMA: f64 = 0.62;
 
-/// The format's name (`format = ...`).
-pub const FORMAT: &str = "rins-sensor/1";
+/// The format's name (`format = ...`): version 2, which can say a term
+/// is unknown.
+pub const FORMAT: &str = "rins-sensor/2";
+/// Version 1: every term a number, a missing one zero (read as before).
+pub const FORMAT_V1: &str = "rins-sensor/1";
+/// A term's value when it is not known.
+pub const UNKNOWN: &str = "unknown";
 
 /// The shipped sensor files, by name.
 pub const SHIPPED: [(&str, &str); 6] = [
@@ -102,6 +107,15 @@ pub fn names() -> Vec<&'static str> {
 
 /// Reads a sensor file's text (`what` names it in errors).
 ///
+/// `rins-sensor/1`: a missing key is zero. `rins-sensor/2`: a term may be
+/// `"unknown"`, and a missing error term is unknown (the terms a
+/// `/1` file would read as zero: every triad key but `latency_s` and
+/// `flicker`, and the gyros' g-sensitivity); latency, jitter, the
+/// temperature and the mounting keep their defaults, which are genuine
+/// (zero latency and jitter, the identity mounting). Unknown terms read as
+/// zero in the spec and are listed in [`ImuSpec::unknown`], so that a
+/// command needing one refuses ([`ImuSpec::require`]).
+///
 /// # Errors
 /// Not TOML, another format, a missing or unknown key, a value of the
 /// wrong type, a negative magnitude.
@@ -111,18 +125,30 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
     if let Some(b) = t.remove("base") {
         t = inherit(&b, t).map_err(err)?;
     }
-    let mut r = Reader { t: &t, what };
-    match r.str_at(None, "format")? {
-        Some(f) if f == FORMAT => {}
-        Some(f) => return Err(err(format!("format is {f:?}, expected {FORMAT:?}"))),
+    let v2 = match t.get("format").map(toml::Value::as_str) {
+        Some(Some(f)) if f == FORMAT => true,
+        Some(Some(f)) if f == FORMAT_V1 => false,
+        Some(Some(f)) => {
+            return Err(err(format!(
+                "format is {f:?}, expected {FORMAT:?} (or {FORMAT_V1:?})"
+            )))
+        }
+        Some(None) => return Err(err("format must be a string".into())),
         None => return Err(err(format!("missing key format (= {FORMAT:?})"))),
-    }
+    };
+    let r = Reader {
+        t: &t,
+        what,
+        v2,
+        unknown: core::cell::RefCell::new(vec![]),
+    };
     r.known(
         None,
         &[
             "format",
             "name",
             "model",
+            "measured",
             "gyro",
             "accel",
             "timing",
@@ -130,11 +156,12 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
             "mounting",
         ],
     )?;
+    r.measured()?;
     let name = r.str_at(None, "name")?.unwrap_or_else(|| what.to_string());
     let model = r.str_at(None, "model")?.unwrap_or_else(|| name.clone());
     let gyro = r.triad("gyro", &GYRO)?;
     let accel = r.triad("accel", &ACCEL)?;
-    let g_sensitivity = r.num("gyro", "g_sensitivity_dps_per_g")?.unwrap_or(0.0) * DEG / G0;
+    let g_sensitivity = r.term("gyro", "g_sensitivity_dps_per_g")? * DEG / G0;
     // Latencies are signed (a stamp taken late makes a sample early).
     let latency_s = r.signed("gyro", "latency_s")?.unwrap_or(0.0);
     let accel_latency_s = r.signed("accel", "latency_s")?;
@@ -158,6 +185,9 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
         imu_to_base_deg: r.vec3("mounting", "imu_to_base_deg")?.unwrap_or([0.0; 3]),
         antenna_b_m: r.vec3("mounting", "antenna_b_m")?,
     };
+    let mut unknown = r.unknown.into_inner();
+    unknown.sort();
+    unknown.dedup();
     Ok(ImuSpec {
         name,
         model,
@@ -169,12 +199,15 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
         jitter_s,
         temp,
         mounting,
+        unknown,
     })
 }
 
 /// A file that starts from a shipped sensor (`base = "icm42605"`): the
-/// shipped file's tables with this file's keys over them (a user's unit of
-/// a known chip: its own mounting, lever arm or measured noise).
+/// shipped file's every term, written out as `rins-sensor/2` (so a term
+/// the shipped file leaves at zero is a zero, not unknown), with this
+/// file's keys over them (a user's unit of a known chip: its own
+/// mounting, lever arm or measured noise).
 fn inherit(base: &toml::Value, over: toml::Table) -> Result<toml::Table, String> {
     let name = base
         .as_str()
@@ -189,7 +222,8 @@ fn inherit(base: &toml::Value, over: toml::Table) -> Result<toml::Table, String>
                 names().join(", ")
             )
         })?;
-    let mut t: toml::Table = text
+    let spec = parse(text, &format!("sensors/{name}.toml")).map_err(|e| e.0)?;
+    let mut t: toml::Table = write(&spec, &[])
         .parse()
         .map_err(|e| format!("sensors/{name}.toml: {e}"))?;
     for (k, v) in over {
@@ -204,9 +238,15 @@ fn inherit(base: &toml::Value, over: toml::Table) -> Result<toml::Table, String>
 }
 
 /// One quantity of a triad: the keys that may give it (exactly one of
-/// them, or none for zero) and each key's factor to SI.
+/// them) and each key's factor to SI; the first is its name when unknown.
 struct Quantity {
     keys: &'static [(&'static str, f64)],
+}
+
+impl Quantity {
+    fn first(&self) -> (&'static str, f64) {
+        self.keys.first().copied().unwrap_or(("", 1.0))
+    }
 }
 
 /// The keys of a triad's table, in the order of [`TriadSpec`]'s fields
@@ -301,9 +341,20 @@ const SHARED: [&str; 8] = [
     "flicker",
 ];
 
+/// A value as the file gives it.
+enum Val {
+    Absent,
+    Unknown,
+    Num(f64),
+}
+
 struct Reader<'a> {
     t: &'a toml::Table,
     what: &'a str,
+    /// `rins-sensor/2`: `"unknown"` allowed, a missing term unknown.
+    v2: bool,
+    /// The terms found unknown (`table.key`).
+    unknown: core::cell::RefCell<Vec<String>>,
 }
 
 impl Reader<'_> {
@@ -328,6 +379,11 @@ impl Reader<'_> {
         table.map_or(key.to_string(), |t| format!("{t}.{key}"))
     }
 
+    /// Records `table.key` as unknown.
+    fn mark(&self, table: &str, key: &str) {
+        self.unknown.borrow_mut().push(format!("{table}.{key}"));
+    }
+
     /// Refuses keys the format does not have (a misspelt key would
     /// otherwise be a silent zero).
     fn known(&self, table: Option<&str>, keys: &[&str]) -> Result<(), SensorError> {
@@ -344,6 +400,17 @@ impl Reader<'_> {
         }
     }
 
+    /// The top-level `measured` list: strings, if present.
+    fn measured(&self) -> Result<(), SensorError> {
+        match self.t.get("measured") {
+            None => Ok(()),
+            Some(v) => match v.as_array() {
+                Some(a) if a.iter().all(toml::Value::is_str) => Ok(()),
+                _ => Err(self.err("measured must be an array of key names".into())),
+            },
+        }
+    }
+
     fn str_at(&self, table: Option<&str>, key: &str) -> Result<Option<String>, SensorError> {
         let Some(t) = self.table(table)? else {
             return Ok(None);
@@ -356,20 +423,37 @@ impl Reader<'_> {
         }
     }
 
-    /// A finite number of either sign.
-    fn signed(&self, table: &str, key: &str) -> Result<Option<f64>, SensorError> {
+    /// A finite number of either sign, `"unknown"` (`/2` only), or absent.
+    fn val(&self, table: &str, key: &str) -> Result<Val, SensorError> {
         let Some(t) = self.table(Some(table))? else {
-            return Ok(None);
+            return Ok(Val::Absent);
         };
         let name = Self::key_name(Some(table), key);
         match t.get(key) {
-            None => Ok(None),
+            None => Ok(Val::Absent),
+            Some(v) if v.as_str() == Some(UNKNOWN) => match self.v2 {
+                true => Ok(Val::Unknown),
+                false => Err(self.err(format!("{name} = \"unknown\" needs format = {FORMAT:?}"))),
+            },
             Some(v) => v
                 .as_float()
                 .or_else(|| v.as_integer().map(|i| i as f64))
                 .filter(|x| x.is_finite())
-                .map(Some)
-                .ok_or_else(|| self.err(format!("{name} must be a finite number"))),
+                .map(Val::Num)
+                .ok_or_else(|| self.err(format!("{name} must be a finite number or \"unknown\""))),
+        }
+    }
+
+    /// A finite number of either sign; `"unknown"` is recorded and reads
+    /// as absent.
+    fn signed(&self, table: &str, key: &str) -> Result<Option<f64>, SensorError> {
+        match self.val(table, key)? {
+            Val::Absent => Ok(None),
+            Val::Unknown => {
+                self.mark(table, key);
+                Ok(None)
+            }
+            Val::Num(x) => Ok(Some(x)),
         }
     }
 
@@ -382,6 +466,16 @@ impl Reader<'_> {
             ))),
             x => Ok(x),
         }
+    }
+
+    /// An error term: its value, or zero when unknown (recorded) or, in
+    /// a `/1` file, absent; absent in a `/2` file it is unknown.
+    fn term(&self, table: &str, key: &str) -> Result<f64, SensorError> {
+        let x = self.num(table, key)?;
+        if x.is_none() && self.v2 {
+            self.mark(table, key);
+        }
+        Ok(x.unwrap_or(0.0))
     }
 
     fn vec3(&self, table: &str, key: &str) -> Result<Option<[f64; 3]>, SensorError> {
@@ -405,24 +499,95 @@ impl Reader<'_> {
         Ok(Some(out))
     }
 
-    /// The one key of `q` present (in SI), zero when none is; an error
-    /// when two are.
+    /// The one key of `q` present (in SI); an error when two are. Unknown
+    /// (or absent from a `/2` file): zero, recorded under `q`'s first key.
     fn quantity(&self, table: &str, q: &Quantity) -> Result<f64, SensorError> {
-        let mut found: Option<(&str, f64)> = None;
+        let mut found: Option<(&str, Option<f64>)> = None;
         for (key, factor) in q.keys {
-            if let Some(x) = self.num(table, key)? {
-                if let Some((other, _)) = found {
-                    return Err(self.err(format!(
-                        "{table}.{other} and {table}.{key} give the same quantity: keep one"
-                    )));
+            let v = match self.val(table, key)? {
+                Val::Absent => continue,
+                Val::Unknown => None,
+                Val::Num(x) if x < 0.0 => {
+                    return Err(self.err(format!("{table}.{key} = {x}: must be finite and >= 0")))
                 }
-                found = Some((key, x * factor));
+                Val::Num(x) => Some(x * factor),
+            };
+            if let Some((other, _)) = found {
+                return Err(self.err(format!(
+                    "{table}.{other} and {table}.{key} give the same quantity: keep one"
+                )));
+            }
+            found = Some((key, v));
+        }
+        match found {
+            Some((_, Some(x))) => Ok(x),
+            Some((_, None)) => {
+                self.mark(table, q.first().0);
+                Ok(0.0)
+            }
+            None => {
+                if self.v2 {
+                    self.mark(table, q.first().0);
+                }
+                Ok(0.0)
             }
         }
-        Ok(found.map_or(0.0, |(_, x)| x))
     }
 
-    fn triad(&mut self, table: &str, k: &TriadKeys) -> Result<TriadSpec, SensorError> {
+    /// The resolution: `lsb` or `sensitivity`, once.
+    fn lsb(&self, table: &str, k: &TriadKeys) -> Result<f64, SensorError> {
+        let canonical = k.lsb.first().0;
+        let (lsb, sens) = (self.val(table, canonical)?, self.val(table, k.sensitivity)?);
+        let factor = k.lsb.first().1;
+        match (lsb, sens) {
+            (Val::Num(l), Val::Absent) if l >= 0.0 => Ok(l * factor),
+            (Val::Absent, Val::Num(s)) if s > 0.0 => Ok(k.unit / s),
+            (Val::Unknown, Val::Absent) | (Val::Absent, Val::Unknown) => {
+                self.mark(table, canonical);
+                Ok(0.0)
+            }
+            (Val::Absent, Val::Absent) => {
+                if self.v2 {
+                    self.mark(table, canonical);
+                }
+                Ok(0.0)
+            }
+            _ => Err(self.err(format!(
+                "{table}: give the resolution once (lsb or {}, > 0)",
+                k.sensitivity
+            ))),
+        }
+    }
+
+    /// The misalignment: `cross_axis_pct` (the pair's, per entry / sqrt 2)
+    /// or `misalignment_deg`, once.
+    fn misalignment(&self, table: &str) -> Result<f64, SensorError> {
+        let cross = self.num(table, "cross_axis_pct");
+        let mis = self.num(table, "misalignment_deg");
+        let unknown_before = self.unknown.borrow().len();
+        let (cross, mis) = (cross?, mis?);
+        let said_unknown = self.unknown.borrow().len() > unknown_before;
+        Ok(match (cross, mis) {
+            (Some(_), Some(_)) => {
+                return Err(self.err(format!(
+                    "{table}.cross_axis_pct and {table}.misalignment_deg give the same quantity: keep one"
+                )))
+            }
+            (Some(c), None) => c / 100.0 / core::f64::consts::SQRT_2,
+            (None, Some(m)) => m * DEG,
+            (None, None) => {
+                if self.v2 || said_unknown {
+                    self.unknown.borrow_mut().retain(|u| {
+                        u != &format!("{table}.cross_axis_pct")
+                    });
+                    self.mark(table, "misalignment_deg");
+                }
+                0.0
+            }
+        })
+    }
+
+    fn triad(&self, table: &str, k: &TriadKeys) -> Result<TriadSpec, SensorError> {
         let mut keys: Vec<&str> = SHARED.to_vec();
         for q in [
             &k.noise,
@@ -438,38 +603,17 @@ impl Reader<'_> {
         keys.push(k.sensitivity);
         keys.extend(k.extra);
         self.known(Some(table), &keys)?;
-        let n = |key: &str| self.num(table, key).map(|x| x.unwrap_or(0.0));
         let full_scale = self.quantity(table, &k.full_scale)?;
-        let lsb = match (
-            self.quantity(table, &k.lsb)?,
-            self.num(table, k.sensitivity)?,
-        ) {
-            (l, None) => l,
-            (0.0, Some(s)) if s > 0.0 => k.unit / s,
-            _ => {
-                return Err(self.err(format!(
-                    "{table}: give the resolution once (lsb or {})",
-                    k.sensitivity
-                )))
-            }
-        };
-        let nonlin = n("nonlinearity_pct_fs")? / 100.0;
-        if nonlin > 0.0 && full_scale <= 0.0 {
+        let fs_key = k.full_scale.first().0;
+        let fs_unknown = self.is_unknown(table, fs_key);
+        let lsb = self.lsb(table, k)?;
+        let nonlin = self.term(table, "nonlinearity_pct_fs")? / 100.0;
+        if nonlin > 0.0 && (full_scale <= 0.0 || fs_unknown) {
             return Err(self.err(format!(
-                "{table}.nonlinearity_pct_fs needs the full scale ({table}.{})",
-                k.full_scale.keys.first().map_or("", |(n, _)| *n)
+                "{table}.nonlinearity_pct_fs needs the full scale ({table}.{fs_key})"
             )));
         }
-        let misalignment = match (self.num(table, "cross_axis_pct")?, self.num(table, "misalignment_deg")?) {
-            (Some(_), Some(_)) => {
-                return Err(self.err(format!(
-                    "{table}.cross_axis_pct and {table}.misalignment_deg give the same quantity: keep one"
-                )))
-            }
-            (Some(c), None) => c / 100.0 / core::f64::consts::SQRT_2,
-            (None, Some(m)) => m * DEG,
-            (None, None) => 0.0,
-        };
+        let misalignment = self.misalignment(table)?;
         let flicker = match self.table(Some(table))?.and_then(|t| t.get("flicker")) {
             None => false,
             Some(v) => v
@@ -478,7 +622,7 @@ impl Reader<'_> {
         };
         Ok(TriadSpec {
             bias: self.quantity(table, &k.bias)?,
-            scale: n("scale_pct")? / 100.0,
+            scale: self.term(table, "scale_pct")? / 100.0,
             misalignment,
             k2: if nonlin > 0.0 {
                 nonlin / full_scale
@@ -486,35 +630,72 @@ impl Reader<'_> {
                 0.0
             },
             k3: 0.0,
-            asymmetry: n("asymmetry_pct")? / 100.0,
+            asymmetry: self.term(table, "asymmetry_pct")? / 100.0,
             white: self.quantity(table, &k.noise)?,
             bias_instability: self.quantity(table, &k.floor)? / ALLAN_PEAK_PER_GM_SIGMA,
-            bi_tau_s: n("bias_tau_s")?,
+            bi_tau_s: self.term(table, "bias_tau_s")?,
             flicker,
             rrw: self.quantity(table, &k.rrw)?,
             temp_bias: self.quantity(table, &k.temp_bias)?,
-            temp_scale: n("temp_scale_ppm_per_c")? / 1e6,
+            temp_scale: self.term(table, "temp_scale_ppm_per_c")? / 1e6,
             lsb,
             full_scale,
         })
     }
+
+    fn is_unknown(&self, table: &str, key: &str) -> bool {
+        let k = format!("{table}.{key}");
+        self.unknown.borrow().contains(&k)
+    }
 }
 
-/// A sensor file for `spec` (`rins allan --sensor-out`, `rins diagnose
-/// --sensor-out`): every quantity in the format's first unit, with
-/// `comment` lines (where the figures come from) on top.
+/// Where a written file's terms come from: the shipped sensor it starts
+/// from (its name, for `base`), and the keys the writing tool measured
+/// (`table.key`, the format's first key of each term).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Provenance {
+    /// The shipped sensor the unmeasured terms come from.
+    pub base: Option<String>,
+    /// The keys measured.
+    pub measured: Vec<String>,
+}
+
+/// A sensor file for `spec`: every term in the format's first unit (or
+/// `"unknown"` where [`ImuSpec::unknown`] lists it), with `comment` lines
+/// (where the figures come from) on top.
 pub fn write(spec: &ImuSpec, comment: &[String]) -> String {
+    write_with(spec, &Provenance::default(), comment)
+}
+
+/// [`write`] saying where each term comes from: `base` and `measured` at
+/// the top, and each measured term marked `# measured` on its line.
+pub fn write_with(spec: &ImuSpec, from: &Provenance, comment: &[String]) -> String {
     let mut s = String::new();
     for c in comment {
         s.push_str(&format!("# {c}\n"));
     }
+    s.push_str(&format!("format = {FORMAT:?}\n"));
+    if let Some(b) = &from.base {
+        s.push_str(&format!("base = {b:?}\n"));
+    }
     s.push_str(&format!(
-        "format = {FORMAT:?}\nname = {:?}\nmodel = {:?}\n",
+        "name = {:?}\nmodel = {:?}\n",
         spec.name, spec.model
     ));
-    let triad = |s: &mut String, t: &TriadSpec, k: &TriadKeys| {
-        let first = |q: &Quantity| q.keys.first().copied().unwrap_or(("", 1.0));
-        let mut line = |key: &str, v: f64| s.push_str(&format!("{key} = {v:?}\n"));
+    if !from.measured.is_empty() {
+        s.push_str(&format!("measured = {:?}\n", from.measured));
+    }
+    let line = |s: &mut String, table: &str, key: &str, v: f64| {
+        let k = format!("{table}.{key}");
+        if spec.unknown.contains(&k) {
+            s.push_str(&format!("{key} = {UNKNOWN:?}\n"));
+        } else if from.measured.contains(&k) {
+            s.push_str(&format!("{key} = {v:?}  # measured\n"));
+        } else {
+            s.push_str(&format!("{key} = {v:?}\n"));
+        }
+    };
+    let triad = |s: &mut String, table: &str, t: &TriadSpec, k: &TriadKeys| {
         for (q, v) in [
             (&k.noise, t.white),
             (&k.floor, t.bias_instability * ALLAN_PEAK_PER_GM_SIGMA),
@@ -524,32 +705,38 @@ pub fn write(spec: &ImuSpec, comment: &[String]) -> String {
             (&k.lsb, t.lsb),
             (&k.full_scale, t.full_scale),
         ] {
-            let (key, f) = first(q);
-            line(key, v / f);
+            let (key, f) = q.first();
+            line(s, table, key, v / f);
         }
-        line("bias_tau_s", t.bi_tau_s);
-        line("scale_pct", t.scale * 100.0);
-        line("misalignment_deg", t.misalignment / DEG);
-        if t.full_scale > 0.0 {
-            line("nonlinearity_pct_fs", t.k2 * t.full_scale * 100.0);
+        line(s, table, "bias_tau_s", t.bi_tau_s);
+        line(s, table, "scale_pct", t.scale * 100.0);
+        line(s, table, "misalignment_deg", t.misalignment / DEG);
+        if t.k2 == 0.0 {
+            line(s, table, "nonlinearity_pct_fs", 0.0);
+        } else if t.full_scale > 0.0 {
+            line(s, table, "nonlinearity_pct_fs", t.k2 * t.full_scale * 100.0);
+        } else {
+            s.push_str(&format!("nonlinearity_pct_fs = {UNKNOWN:?}\n"));
         }
-        line("asymmetry_pct", t.asymmetry * 100.0);
-        line("temp_scale_ppm_per_c", t.temp_scale * 1e6);
+        line(s, table, "asymmetry_pct", t.asymmetry * 100.0);
+        line(s, table, "temp_scale_ppm_per_c", t.temp_scale * 1e6);
         if t.flicker {
             s.push_str("flicker = true\n");
         }
     };
     s.push_str("\n[gyro]\n");
-    triad(&mut s, &spec.gyro, &GYRO);
-    s.push_str(&format!(
-        "g_sensitivity_dps_per_g = {:?}\nlatency_s = {:?}\n",
+    triad(&mut s, "gyro", &spec.gyro, &GYRO);
+    line(
+        &mut s,
+        "gyro",
+        "g_sensitivity_dps_per_g",
         spec.g_sensitivity * G0 / DEG,
-        spec.latency_s
-    ));
+    );
+    line(&mut s, "gyro", "latency_s", spec.latency_s);
     s.push_str("\n[accel]\n");
-    triad(&mut s, &spec.accel, &ACCEL);
+    triad(&mut s, "accel", &spec.accel, &ACCEL);
     if let Some(l) = spec.accel_latency_s {
-        s.push_str(&format!("latency_s = {l:?}\n"));
+        line(&mut s, "accel", "latency_s", l);
     }
     let t = &spec.temp;
     s.push_str(&format!(
@@ -565,6 +752,62 @@ pub fn write(spec: &ImuSpec, comment: &[String]) -> String {
         s.push_str(&format!("antenna_b_m = {a:?}\n"));
     }
     s
+}
+
+/// Every term's key name as [`ImuSpec::unknown`] and
+/// [`Provenance::measured`] spell it (`table.key`), per triad.
+pub mod terms {
+    /// White noise density.
+    pub const GYRO_NOISE: &str = "gyro.noise_density_dps_rthz";
+    /// See [`GYRO_NOISE`].
+    pub const ACCEL_NOISE: &str = "accel.noise_density_ug_rthz";
+    /// Bias instability (the Allan floor).
+    pub const GYRO_FLOOR: &str = "gyro.bias_instability_deg_h";
+    /// See [`GYRO_FLOOR`].
+    pub const ACCEL_FLOOR: &str = "accel.bias_instability_mg";
+    /// The floor's correlation time.
+    pub const GYRO_TAU: &str = "gyro.bias_tau_s";
+    /// See [`GYRO_TAU`].
+    pub const ACCEL_TAU: &str = "accel.bias_tau_s";
+    /// Rate random walk.
+    pub const GYRO_RRW: &str = "gyro.rate_random_walk_dps_rts";
+    /// See [`GYRO_RRW`].
+    pub const ACCEL_RRW: &str = "accel.random_walk_mps2_rts";
+    /// Turn-on bias.
+    pub const GYRO_BIAS: &str = "gyro.turn_on_bias_dps";
+    /// See [`GYRO_BIAS`].
+    pub const ACCEL_BIAS: &str = "accel.turn_on_bias_mg";
+    /// Scale factor error.
+    pub const GYRO_SCALE: &str = "gyro.scale_pct";
+    /// See [`GYRO_SCALE`].
+    pub const ACCEL_SCALE: &str = "accel.scale_pct";
+    /// Misalignment.
+    pub const GYRO_MISALIGNMENT: &str = "gyro.misalignment_deg";
+    /// See [`GYRO_MISALIGNMENT`].
+    pub const ACCEL_MISALIGNMENT: &str = "accel.misalignment_deg";
+    /// Resolution.
+    pub const GYRO_LSB: &str = "gyro.lsb_dps";
+    /// See [`GYRO_LSB`].
+    pub const ACCEL_LSB: &str = "accel.lsb_mg";
+    /// Full scale.
+    pub const GYRO_FULL_SCALE: &str = "gyro.full_scale_dps";
+    /// See [`GYRO_FULL_SCALE`].
+    pub const ACCEL_FULL_SCALE: &str = "accel.full_scale_g";
+    /// What a sensor must give to make noise (`rins simulate`).
+    pub const NOISE: [&str; 2] = [GYRO_NOISE, ACCEL_NOISE];
+    /// What the aided filter's noise model is made of.
+    pub const FILTER: [&str; 10] = [
+        GYRO_NOISE,
+        ACCEL_NOISE,
+        GYRO_FLOOR,
+        ACCEL_FLOOR,
+        GYRO_BIAS,
+        ACCEL_BIAS,
+        GYRO_SCALE,
+        ACCEL_SCALE,
+        GYRO_MISALIGNMENT,
+        ACCEL_MISALIGNMENT,
+    ];
 }
 
 #[cfg(test)]
@@ -660,6 +903,65 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.0.contains("mounting.imu_to_base_deg"), "{e}");
+    }
+
+    #[test]
+    fn version_2_says_unknown_and_a_missing_term_is_unknown() {
+        let text = "format = \"rins-sensor/2\"\nname = \"m\"\n[gyro]\nnoise_density_dps_rthz = 0.01\nfull_scale_dps = \"unknown\"\n[accel]\nnoise_density_ug_rthz = 80\n";
+        let s = parse(text, "m.toml").unwrap();
+        assert_eq!(s.gyro.white, 0.01 * DEG);
+        assert!(s.unknown.contains(&terms::GYRO_FULL_SCALE.to_string()));
+        // Missing error terms are unknown, not zero...
+        for t in [
+            terms::GYRO_FLOOR,
+            terms::ACCEL_BIAS,
+            terms::GYRO_SCALE,
+            terms::ACCEL_LSB,
+        ] {
+            assert!(s.unknown.contains(&t.to_string()), "{t}: {:?}", s.unknown);
+        }
+        assert!(!s.unknown.contains(&terms::GYRO_NOISE.to_string()));
+        // ...while latency, jitter and the mounting are genuine zeros.
+        assert!(!s.unknown.iter().any(|u| u.ends_with("latency_s")));
+        assert_eq!((s.latency_s, s.jitter_s), (0.0, 0.0));
+        let e = s.require(&terms::FILTER, "the aided filter").unwrap_err();
+        assert!(
+            e.0.contains(terms::GYRO_FLOOR) && !e.0.contains(terms::GYRO_NOISE),
+            "{e}"
+        );
+        assert!(s.require(&terms::NOISE, "simulate").is_ok());
+        // "unknown" in a version 1 file is refused, naming the key.
+        let e = parse(&text.replace("/2", "/1"), "m.toml").unwrap_err();
+        assert!(
+            e.0.contains("gyro.full_scale_dps") && e.0.contains("rins-sensor/2"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_base_gives_every_term_and_unknown_survives_a_round_trip() {
+        // A /2 file on a shipped base: the base's zeros are zeros.
+        let text = "format = \"rins-sensor/2\"\nbase = \"icm42605\"\nname = \"u\"\n[gyro]\nnoise_density_dps_rthz = 0.005\nscale_pct = \"unknown\"\n";
+        let s = parse(text, "u.toml").unwrap();
+        assert_eq!(s.unknown, vec![terms::GYRO_SCALE.to_string()]);
+        assert_eq!(s.gyro.rrw, 0.0);
+        let prov = Provenance {
+            base: Some("icm42605".into()),
+            measured: vec![terms::GYRO_NOISE.into()],
+        };
+        let w = write_with(&s, &prov, &["t".into()]);
+        assert!(w.contains("scale_pct = \"unknown\""), "{w}");
+        assert!(
+            w.contains("noise_density_dps_rthz = 0.005  # measured"),
+            "{w}"
+        );
+        assert!(
+            w.contains("measured = [\"gyro.noise_density_dps_rthz\"]"),
+            "{w}"
+        );
+        let back = parse(&w, "back").unwrap();
+        assert_eq!(back.unknown, s.unknown);
+        assert_eq!(back.gyro.white, s.gyro.white);
     }
 
     #[test]

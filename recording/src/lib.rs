@@ -16,6 +16,7 @@
 //! files (`gnss.csv`, `truth.csv`); [`track`]: the table's motion from the
 //! recorded encoder reads.
 
+pub mod clock;
 pub mod moving;
 pub mod plausible;
 pub mod relabel;

@@ -221,6 +221,100 @@ pub fn excluded(rec: &Recording, bad: &[Implausible]) -> (Recording, usize) {
     (out, bad.len())
 }
 
+/// Values a lattice is looked for in (the first ones of a channel).
+const LATTICE_VALUES: usize = 50_000;
+
+/// The step of the lattice a channel's values `x` lie on (an ADC's LSB
+/// in the channel's unit, as printed): the mean of the single-step gaps
+/// between distinct values (those under 1.5 times the smallest; a
+/// printout rounded to fewer digits than the LSB makes them uneven, their
+/// mean is the step), refined by least squares on the levels' indices;
+/// `Some` if at least 99 % of the distinct values (at least 10 of them)
+/// sit within 15 % of a step of the lattice (a print rounding of up to a
+/// tenth of a step passes, values off any lattice do not: a simulated
+/// float, a filtered or rescaled output).
+pub fn lattice(x: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = x
+        .iter()
+        .take(LATTICE_VALUES)
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
+    v.sort_by(f64::total_cmp);
+    let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    let eps = 1e-9 * scale.max(f64::MIN_POSITIVE);
+    v.dedup_by(|a, b| (*a - *b).abs() <= eps);
+    if v.len() < 10 {
+        return None;
+    }
+    let gaps: Vec<f64> = v
+        .windows(2)
+        .filter_map(|w| Some(w.get(1)? - w.first()?))
+        .collect();
+    let smallest = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+    let single: Vec<f64> = gaps
+        .iter()
+        .copied()
+        .filter(|g| *g < 1.5 * smallest)
+        .collect();
+    let mut step = single.iter().sum::<f64>() / single.len().max(1) as f64;
+    let v0 = *v.first()?;
+    let index = |x: f64, step: f64| ((x - v0) / step).round();
+    for _ in 0..3 {
+        // Least squares of v = v0 + a + step k over the levels.
+        let n = v.len() as f64;
+        let ks: Vec<f64> = v.iter().map(|x| index(*x, step)).collect();
+        let (mk, mv) = (ks.iter().sum::<f64>() / n, v.iter().sum::<f64>() / n);
+        let (mut skv, mut skk) = (0.0, 0.0);
+        for (k, x) in ks.iter().zip(&v) {
+            skv += (k - mk) * (x - mv);
+            skk += (k - mk) * (k - mk);
+        }
+        if skk > 0.0 {
+            step = skv / skk;
+        }
+    }
+    let on = v
+        .iter()
+        .filter(|x| {
+            let r = (*x - v0) / step;
+            (r - r.round()).abs() < 0.15
+        })
+        .count();
+    (step.is_finite() && step > eps && on as f64 >= 0.99 * v.len() as f64).then_some(step)
+}
+
+/// The rail a channel's values `x` clip at: the largest `|x|` when the
+/// readings pile up there (at least 5 of them, and twice as many as at
+/// the next value in), a sensor held at its full scale; `None` otherwise
+/// (no reading reached the rail: the largest is only a lower bound).
+pub fn clipped_at(x: &[f64]) -> Option<f64> {
+    let top = x
+        .iter()
+        .filter(|x| x.is_finite())
+        .fold(0.0f64, |m, x| m.max(x.abs()));
+    if top <= 0.0 {
+        return None;
+    }
+    let eps = 1e-9 * top;
+    for sign in [1.0, -1.0] {
+        let rail = sign * top;
+        let at = x.iter().filter(|x| (**x - rail).abs() <= eps).count();
+        let next = x
+            .iter()
+            .filter(|x| sign * **x < top - eps)
+            .fold(f64::NEG_INFINITY, |m, x| m.max(sign * x));
+        let before = x
+            .iter()
+            .filter(|x| (sign * **x - next).abs() <= eps)
+            .count();
+        if at >= 5 && at >= 2 * before {
+            return Some(top);
+        }
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -278,5 +372,32 @@ mod tests {
         assert!(bad.iter().all(|b| b.kind == Kind::Stuck(150)));
         let ideal = rec_with(|_| 0.5, 1000);
         assert!(check(&ideal, None).is_empty());
+    }
+
+    #[test]
+    fn a_lattice_is_found_on_quantised_values_and_not_on_floats() {
+        // An MPU-6050's accelerometer at +-2 g: 1/16384 g steps.
+        let lsb = 9.80665 / 16384.0;
+        let q: Vec<f64> = (0..5000)
+            .map(|k| ((k as f64 * 0.37).sin() * 40.0).round() * lsb + 3.0 * lsb)
+            .collect();
+        let found = lattice(&q).unwrap();
+        assert!((found / lsb - 1.0).abs() < 1e-9, "{found}");
+        let floats: Vec<f64> = (0..5000).map(|k| (k as f64 * 0.37).sin() * 0.01).collect();
+        assert_eq!(lattice(&floats), None);
+        // The real MPU-6050 log's gyro: 1/16.4 deg/s counts printed to
+        // 0.01 deg/s (gaps of 0.06 and 0.07): the count's step, to 1 %.
+        let printed: Vec<f64> = (0..5000)
+            .map(|k| ((((k as f64 * 0.37).sin() * 300.0).round() / 16.4) * 100.0).round() / 100.0)
+            .collect();
+        let found = lattice(&printed).unwrap();
+        assert!((found * 16.4 - 1.0).abs() < 0.01, "{found}");
+        // Clipping: readings piled up at the rail; none for a quiet channel
+        // whose extreme level is simply rare.
+        let clipped: Vec<f64> = (0..1000)
+            .map(|k| ((k as f64 * 0.05).sin() * 300.0).clamp(-250.0, 250.0))
+            .collect();
+        assert_eq!(clipped_at(&clipped), Some(250.0));
+        assert_eq!(clipped_at(&q), None);
     }
 }

@@ -33,8 +33,10 @@ pub const MAX_HEADING_SIGMA_DEG: f64 = 10.0;
 pub struct StaticAlignment {
     /// The samples averaged: first and last time, s.
     pub window_s: [f64; 2],
-    /// Whole table turns averaged over (0: the table stood still).
+    /// Whole table turns averaged over (0: under one turn).
     pub turns: f64,
+    /// The table angle's range over the window, deg (0: the table still).
+    pub swing_deg: f64,
     /// Roll, pitch, heading of `b` in `n`, deg (heading in [0, 360)).
     pub euler_deg: [f64; 3],
     /// Their 1-sigma, deg (NaN: not known without a sensor profile; the
@@ -52,6 +54,7 @@ struct Means {
     f_b: Vector3<f64>,
     w_b: Vector3<f64>,
     turns: f64,
+    swing_deg: f64,
     window_s: [f64; 2],
 }
 
@@ -78,8 +81,11 @@ fn means(rec: &Recording, start_s: f64) -> Result<Means> {
     let whole = (swept / core::f64::consts::TAU).floor();
     let k = rec.meta.axis.unit::<f64>();
     let (mut f_b, mut w_b, mut n, mut last) = (Vector3::zeros(), Vector3::zeros(), 0usize, t0);
+    let (mut lo, mut hi) = (theta0, theta0);
     for r in rows {
         let (theta, rate) = at(r.t_s);
+        lo = lo.min(theta);
+        hi = hi.max(theta);
         if whole >= 1.0 && (theta - theta0).abs() > whole * core::f64::consts::TAU {
             break;
         }
@@ -100,6 +106,7 @@ fn means(rec: &Recording, start_s: f64) -> Result<Means> {
         f_b: f_b / nf,
         w_b: w_b / nf,
         turns: whole,
+        swing_deg: (hi - lo).to_degrees(),
         window_s: [t0, last],
     })
 }
@@ -140,7 +147,7 @@ pub fn align(rec: &Recording, start_s: f64, profile: Option<&ImuSpec>) -> Result
             if s.rate_radps.is_finite() {
                 format!("{:.1} deg/h of error", s.rate_radps.to_degrees() * 3600.0)
             } else {
-                "their bias unknown without a sensor profile".to_string()
+                "their bias or noise unknown: no sensor profile, or its file does not know them".to_string()
             },
             s.earth_h_radps.to_degrees() * 3600.0
         )
@@ -149,6 +156,7 @@ pub fn align(rec: &Recording, start_s: f64, profile: Option<&ImuSpec>) -> Result
     Ok(StaticAlignment {
         window_s: mm.window_s,
         turns: mm.turns,
+        swing_deg: mm.swing_deg,
         euler_deg: [
             level.roll.to_degrees(),
             level.pitch.to_degrees(),
@@ -198,8 +206,23 @@ fn sigmas(
     })) * m.axis.unit::<f64>();
     let k_h = k_l.x.hypot(k_l.y);
     let share = if mm.turns >= 1.0 { k_h } else { 1.0 };
+    // A term the sensor file does not know is NaN here: the sigma it
+    // feeds is unknown, never a zero.
+    let known = |p: &ImuSpec, key: &str, v: f64| {
+        if p.unknown.iter().any(|u| u == key) {
+            f64::NAN
+        } else {
+            v
+        }
+    };
     let (ba, bg, vrw, arw) = profile.map_or((f64::NAN, f64::NAN, f64::NAN, f64::NAN), |p| {
-        (p.accel.bias, p.gyro.bias, p.accel.white, p.gyro.white)
+        use hal_sim::sensor::terms as k;
+        (
+            known(p, k::ACCEL_BIAS, p.accel.bias),
+            known(p, k::GYRO_BIAS, p.gyro.bias),
+            known(p, k::ACCEL_NOISE, p.accel.white),
+            known(p, k::GYRO_NOISE, p.gyro.white),
+        )
     });
     // A bias that the turns average away counts for nothing, known or not.
     let left = |b: f64| if share < 1e-3 { 0.0 } else { share * b };
@@ -208,7 +231,7 @@ fn sigmas(
     } else {
         k_h * core::f64::consts::SQRT_2 * EncoderTrack::of(rec).read_sigma_rad() / t
     };
-    let white = |d: f64| if d.is_finite() { d / t.sqrt() } else { 0.0 };
+    let white = |d: f64| d / t.sqrt();
     let level_rad = left(ba).hypot(white(vrw)) / g;
     let rate = left(bg).hypot(white(arw)).hypot(enc);
     let lat = m.latitude_deg.to_radians();

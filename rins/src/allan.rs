@@ -39,7 +39,21 @@ pub fn compute(rec: &Recording) -> Vec<ChannelAllan> {
         .collect()
 }
 
-/// The `rins-allan/1` JSON.
+/// The terms of `f` its curve cannot support (null in the JSON: unknown,
+/// never zero).
+pub fn not_measured(f: &NoiseFit) -> Vec<&'static str> {
+    let mut v = vec![];
+    if f.white <= 0.0 {
+        v.push("white_noise_density");
+    }
+    if !f.floor_seen {
+        v.push("bias_instability");
+    }
+    v
+}
+
+/// The `rins-allan/1` JSON: a term the curve cannot support is null and
+/// named in the channel's `not_measured`.
 pub fn to_json(chs: &[ChannelAllan]) -> Value {
     let mut m = Map::new();
     for c in chs {
@@ -50,9 +64,11 @@ pub fn to_json(chs: &[ChannelAllan]) -> Value {
                 "adev": c.points.iter().map(|p| p.adev).collect::<Vec<_>>(),
                 "adev_lo": c.points.iter().map(|p| p.lo).collect::<Vec<_>>(),
                 "adev_hi": c.points.iter().map(|p| p.hi).collect::<Vec<_>>(),
-                "white_noise_density": c.fit.white,
-                "white_noise_density_sigma": c.fit.white_sigma,
-                "bias_instability": c.fit.bias_instability,
+                "white_noise_density": (c.fit.white > 0.0).then_some(c.fit.white),
+                "white_noise_density_sigma": (c.fit.white > 0.0).then_some(c.fit.white_sigma),
+                "bias_instability": c.fit.floor_seen.then_some(c.fit.bias_instability),
+                "bias_instability_upper_bound": (!c.fit.floor_seen).then_some(c.fit.bias_instability),
+                "not_measured": not_measured(&c.fit),
                 "rate_random_walk": c.fit.rrw,
                 "gauss_markov_sigma": c.fit.gm_sigma,
                 "gauss_markov_tau_s": c.fit.gm_tau_s,
@@ -94,6 +110,37 @@ pub fn figure(chs: &[ChannelAllan], title: &str) -> Figure {
     }
 }
 
+/// The least number of fitted averaging times (from [`FIT_MIN_M`]
+/// periods on) an Allan fit is reported from.
+pub const MIN_FIT_POINTS: usize = 3;
+
+/// Refuses a curve too short to fit: fewer than [`MIN_FIT_POINTS`]
+/// averaging times from [`FIT_MIN_M`] periods on (the first octaves are
+/// the sensor's own filter), with the longest gap-free span and the taus
+/// it allows.
+///
+/// # Errors
+/// The figures, in words.
+pub fn supported(chs: &[ChannelAllan], rec: &Recording) -> Result<(), String> {
+    let fitted = chs
+        .first()
+        .map_or(0, |c| c.points.iter().filter(|p| p.m >= FIT_MIN_M).count());
+    if fitted >= MIN_FIT_POINTS {
+        return Ok(());
+    }
+    let t: Vec<f64> = rec.imu.iter().map(|r| r.t_s).collect();
+    let [a, b] = recording::clock::longest_gap_free(&t, rec.dt_s());
+    let tau_max = chs
+        .first()
+        .and_then(|c| c.points.last())
+        .map_or(0.0, |p| p.tau_s);
+    Err(format!(
+        "the longest gap-free span is {:.2} s ({a:.2}-{b:.2} s of {} pieces): it allows averaging times up to {tau_max:.3} s, {fitted} of them from {FIT_MIN_M} sample periods on, and a noise fit needs {MIN_FIT_POINTS}; no term is reported",
+        b - a,
+        rec.segments().len()
+    ))
+}
+
 /// A text table.
 pub fn report(chs: &[ChannelAllan]) -> String {
     let mut s = String::new();
@@ -103,59 +150,20 @@ pub fn report(chs: &[ChannelAllan]) -> String {
     s
 }
 
-/// A sensor file (`rins-sensor/1`) with the noise the curves measured:
-/// per triad the RMS over its axes of the white noise, the rate random
-/// walk and the Allan floor (the fit's bias instability B times
-/// [`core_nav::allan::FLOOR_OVER_B`]), and the correlation time of the
-/// fitted Gauss-Markov bias (else the floor's tau over 1.89, where a
-/// Gauss-Markov process's Allan deviation peaks). Everything Allan cannot
-/// see comes from `base` (zero without one).
+/// A sensor file (`rins-sensor/2`) with the noise the curves measured
+/// and the resolution and full scale the samples show
+/// ([`crate::sensor_file::Written`]: per triad the RMS over its axes of
+/// what every axis's curve supports); the rest from `base`, or unknown
+/// without one.
 pub fn sensor_file(
     chs: &[ChannelAllan],
-    base: Option<hal_sim::imu::ImuSpec>,
+    rec: &Recording,
+    base: Option<crate::sensor_file::Base>,
     what: &str,
 ) -> String {
-    let mut spec = base.unwrap_or_else(|| hal_sim::imu::ImuSpec {
-        name: "measured".into(),
-        model: "measured".into(),
-        ..hal_sim::imu::ImuSpec::ideal()
-    });
-    let from = spec.name.clone();
-    spec.name = format!("{from}-measured");
-    let rms = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt();
-    let mut notes = vec![
-        format!("Written by rins allan from {what}: the noise terms below are measured"),
-        format!("(the RMS over the axes); the rest is {from:?}'s."),
-    ];
-    for (k, triad) in [(0usize, &mut spec.gyro), (3, &mut spec.accel)] {
-        let axes: Vec<&ChannelAllan> = chs.iter().skip(k).take(3).collect();
-        if axes.len() < 3 {
-            continue;
-        }
-        let fits: Vec<&NoiseFit> = axes.iter().map(|c| &c.fit).collect();
-        triad.white = rms(&fits.iter().map(|f| f.white).collect::<Vec<_>>());
-        triad.rrw = rms(&fits.iter().map(|f| f.rrw).collect::<Vec<_>>());
-        let floor = core_nav::allan::FLOOR_OVER_B
-            * rms(&fits.iter().map(|f| f.bias_instability).collect::<Vec<_>>());
-        triad.bias_instability = floor / hal_sim::sensor::ALLAN_PEAK_PER_GM_SIGMA;
-        let taus: Vec<f64> = axes
-            .iter()
-            .map(|c| match c.fit.gm_tau_s {
-                t if t > 0.0 => t,
-                _ => c
-                    .points
-                    .iter()
-                    .min_by(|a, b| a.adev.total_cmp(&b.adev))
-                    .map_or(100.0, |p| p.tau_s / 1.89),
-            })
-            .collect();
-        triad.bi_tau_s = taus.iter().sum::<f64>() / 3.0;
-        for c in &axes {
-            notes.push(format!(
-                "{}: white {:.4e}, bias instability B {:.4e}, rrw {:.4e} (SI)",
-                c.name, c.fit.white, c.fit.bias_instability, c.fit.rrw
-            ));
-        }
-    }
-    hal_sim::sensor::write(&spec, &notes)
+    let mut w = crate::sensor_file::Written::start(base, "allan", what);
+    let fits: Vec<NoiseFit> = chs.iter().map(|c| c.fit).collect();
+    w.noise(&fits, None, crate::sensor_file::Combine::Rms);
+    w.seen_in_data(rec);
+    w.text()
 }

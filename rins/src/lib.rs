@@ -23,6 +23,7 @@ pub mod record;
 pub mod report;
 pub mod reproduce;
 pub mod results;
+pub mod sensor_file;
 pub mod shard;
 pub mod ubx;
 

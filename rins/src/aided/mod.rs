@@ -230,6 +230,21 @@ pub fn gnss_corr_sigma(fixes: &[GnssRow]) -> [f64; 2] {
 /// # Errors
 /// An unknown name, or a recording whose model names no known profile.
 pub fn profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
+    let p = any_profile(rec, name)?;
+    p.require(
+        &hal_sim::sensor::terms::FILTER,
+        "the aided filter's noise model",
+    )?;
+    Ok(p)
+}
+
+/// [`profile`] whatever it knows (its unknown terms listed in it): for
+/// the alignment's sigmas and the plausibility check, which say what they
+/// cannot tell.
+///
+/// # Errors
+/// As [`profile`], but for unknown terms.
+pub fn any_profile(rec: &Recording, name: Option<&str>) -> Result<ImuSpec> {
     match name {
         Some(name) => Ok(hal_sim::sensor::resolve(name)?),
         None => rec

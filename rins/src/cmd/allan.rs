@@ -17,10 +17,10 @@ pub struct Args {
     /// Write the plot (`allan.svg` and `allan.png`) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
-    /// Write a sensor file (rins-sensor/1) with the measured noise: white
+    /// Write a sensor file (rins-sensor/2) with the measured noise: white
     /// noise, bias instability and its correlation time, rate random walk
-    /// (the axes' RMS); the rest (scale, misalignment, ranges...) from
-    /// --sensor.
+    /// (the axes' RMS, where the curves support them), the resolution and
+    /// full scale the samples show; the rest from --sensor, else unknown.
     #[arg(long)]
     pub sensor_out: Option<PathBuf>,
     /// The sensor the file starts from (a shipped name or a file; default:
@@ -65,12 +65,14 @@ pub fn run(a: &Args) -> Result<()> {
             rec.imu.len()
         );
     }
+    on_the_sensors_clock(&mut rec);
     if rec.gyro_only {
         println!("gyro-only recording (no accel_x_mps2, accel_y_mps2, accel_z_mps2 columns): the accelerometers are not analysed");
     }
     let pb = progress_bar("allan");
     let chs = allan_mod::compute(&rec);
     pb.finish_and_clear();
+    allan_mod::supported(&chs, &rec).map_err(|e| anyhow::anyhow!("{}: {e}", a.rec.display()))?;
     print!("{}", allan_mod::report(&chs));
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string(&allan_mod::to_json(&chs))?)?;
@@ -78,9 +80,12 @@ pub fn run(a: &Args) -> Result<()> {
     }
     if let Some(p) = &a.sensor_out {
         let base = super::base_sensor(a.sensor.as_deref(), &rec)?;
-        let text = allan_mod::sensor_file(&chs, base, &a.rec.display().to_string());
+        let text = allan_mod::sensor_file(&chs, &rec, base, &a.rec.display().to_string());
         write_file(p, &text)?;
-        println!("wrote {} (rins-sensor/1: the measured noise)", p.display());
+        println!(
+            "wrote {} (rins-sensor/2: the measured noise; what was not measured is the base's or unknown)",
+            p.display()
+        );
     }
     if let Some(d) = &a.plots {
         let figure = allan_mod::figure(&chs, &a.rec.display().to_string());
@@ -89,4 +94,33 @@ pub fn run(a: &Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Stamps that break into pieces (arrival times: a logger that stamps
+/// samples as they come, in bursts) put back on the sensor's regular
+/// clock when no sample was lost ([`recording::clock::regular`]), and
+/// said; else left in their gap-free pieces, and said.
+fn on_the_sensors_clock(rec: &mut recording::Recording) {
+    let t: Vec<f64> = rec.imu.iter().map(|r| r.t_s).collect();
+    if recording::clock::is_gap_free(&t, rec.dt_s()) {
+        return;
+    }
+    let pieces = rec.segments().len();
+    match recording::clock::regular(&t) {
+        Ok(r) => {
+            println!(
+                "the time stamps break into {pieces} pieces at {} Hz but no sample is missing: arrival times ({:.1} ms late on average, {:.1} ms at most); the samples are put on the sensor's regular clock ({:.4} ms a sample)",
+                rec.meta.imu_rate_hz,
+                r.mean_lag_s * 1e3,
+                r.max_lag_s * 1e3,
+                r.period_s * 1e3
+            );
+            for (row, t) in rec.imu.iter_mut().zip(r.t_s) {
+                row.t_s = t;
+            }
+        }
+        Err(e) => println!(
+            "the time stamps break into {pieces} pieces, and cannot be put on one regular clock ({e}); no Allan difference straddles a gap"
+        ),
+    }
 }

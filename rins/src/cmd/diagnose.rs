@@ -92,9 +92,12 @@ pub fn run(a: &Args) -> Result<()> {
     }
     if let Some(p) = &a.sensor_out {
         let base = super::base_sensor(a.sensor.as_deref(), &rec)?;
-        write_file(p, &rins::diagnose::sensor_out::sensor_file(&d, base, &name))?;
+        write_file(
+            p,
+            &rins::diagnose::sensor_out::sensor_file(&d, &rec, base, &name),
+        )?;
         println!(
-            "wrote {} (rins-sensor/1: what the findings measured)",
+            "wrote {} (rins-sensor/2: the noise and the terms the findings measured; the rest the base's or unknown)",
             p.display()
         );
     }

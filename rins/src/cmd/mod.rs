@@ -110,8 +110,16 @@ pub fn read_recording(p: &Path) -> Result<Recording> {
 /// said with their time and row, and excluded (each replaced by its
 /// channel's last plausible reading) unless `keep`.
 pub fn plausible(rec: Recording, sensor: Option<&str>, keep: bool) -> Recording {
-    let profile = rins::aided::profile(&rec, sensor).ok();
-    let fs = profile.map(|p| (p.gyro.full_scale, p.accel.full_scale));
+    let profile = rins::aided::any_profile(&rec, sensor).ok();
+    let fs = profile
+        .filter(|p| {
+            p.unknown_of(&[
+                hal_sim::sensor::terms::GYRO_FULL_SCALE,
+                hal_sim::sensor::terms::ACCEL_FULL_SCALE,
+            ])
+            .is_empty()
+        })
+        .map(|p| (p.gyro.full_scale, p.accel.full_scale));
     let bad = recording::plausible::check(&rec, fs);
     if bad.is_empty() {
         return rec;
@@ -122,7 +130,7 @@ pub fn plausible(rec: Recording, sensor: Option<&str>, keep: bool) -> Recording 
         if fs.is_some() {
             ""
         } else {
-            " (full scale not checked: no sensor profile)"
+            " (full scale not checked: no sensor profile, or its full scale unknown)"
         }
     );
     for b in bad.iter().take(3) {
@@ -177,15 +185,27 @@ pub fn write_shard<T: serde::Serialize>(
     Ok(())
 }
 
-/// The sensor a `--sensor-out` file starts from: `name` (a shipped name or
-/// a file), else the one the recording's `[imu] model` names, else none.
-pub fn base_sensor(name: Option<&str>, rec: &Recording) -> Result<Option<hal_sim::imu::ImuSpec>> {
+/// The sensor a `--sensor-out` file starts from: `name` (a shipped name
+/// or a file), else the shipped one the recording's `[imu] model` names
+/// (in any case), else none; with its shipped name when it is one.
+pub fn base_sensor(name: Option<&str>, rec: &Recording) -> Result<Option<rins::sensor_file::Base>> {
+    let shipped = |s: hal_sim::imu::ImuSpec| {
+        let n = hal_sim::sensor::names()
+            .into_iter()
+            .find(|n| *n == s.name)
+            .map(String::from);
+        (s, n)
+    };
     Ok(match name {
-        Some(n) => Some(hal_sim::sensor::resolve(n)?),
+        Some(n) if hal_sim::sensor::names().contains(&n) => {
+            Some(shipped(hal_sim::sensor::resolve(n)?))
+        }
+        Some(n) => Some((hal_sim::sensor::resolve(n)?, None)),
         None => rec
             .meta
             .imu_model
             .as_deref()
-            .and_then(hal_sim::imu::ImuSpec::by_model),
+            .and_then(hal_sim::imu::ImuSpec::by_model)
+            .map(shipped),
     })
 }

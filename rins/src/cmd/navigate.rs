@@ -144,7 +144,7 @@ fn check_span(a: &Args, rec: &recording::Recording) -> Result<()> {
 /// (navigation then starts from meta.toml's attitude, as the trajectory
 /// format says).
 fn align_or_say(rec: &recording::Recording, a: &Args) -> Option<rins::align::StaticAlignment> {
-    let profile = rins::aided::profile(rec, a.sensor.as_deref()).ok();
+    let profile = rins::aided::any_profile(rec, a.sensor.as_deref()).ok();
     match rins::align::align(rec, a.start_s, profile.as_ref()) {
         Ok(al) => Some(al),
         Err(e) => {
@@ -160,7 +160,7 @@ fn alignment_text(al: &rins::align::StaticAlignment, meta_rph: [f64; 3]) -> Stri
         if s.is_finite() {
             format!("+- {s:.3}")
         } else {
-            "+- unknown (no sensor profile: --sensor)".into()
+            "+- unknown (the sensor's bias or noise is not known: --sensor)".into()
         }
     };
     let [r, p, h] = al.euler_deg;
@@ -169,10 +169,11 @@ fn alignment_text(al: &rins::align::StaticAlignment, meta_rph: [f64; 3]) -> Stri
         "alignment over {:.0}-{:.0} s ({}): roll {r:.3} {} deg, pitch {p:.3} {} deg, heading {h:.2} {}\n",
         al.window_s[0],
         al.window_s[1],
-        if al.turns >= 1.0 {
-            format!("{:.0} whole table turns", al.turns)
-        } else {
-            "the table still".into()
+        match (al.turns, al.swing_deg) {
+            (t, _) if t >= 1.0 => format!("{t:.0} whole table turns"),
+            // Under an encoder count of a common table's: still.
+            (_, s) if s < 0.1 => "the table still".into(),
+            (_, s) => format!("the table swinging over {s:.0} deg, under a whole turn"),
         },
         sig(sr),
         sig(sp),

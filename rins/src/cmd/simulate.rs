@@ -99,6 +99,21 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
+/// The sensor `name` names, refused when it does not know its noise (a
+/// simulation without noise is not that sensor); its other unknown terms
+/// are simulated as absent, and said.
+fn sensor_to_simulate(name: &str) -> Result<ImuSpec> {
+    let imu = hal_sim::sensor::resolve(name)?;
+    imu.require(&hal_sim::sensor::terms::NOISE, "rins simulate")?;
+    if !imu.unknown.is_empty() {
+        println!(
+            "sensor {name}: unknown in its file, simulated as absent: {}",
+            imu.unknown.join(", ")
+        );
+    }
+    Ok(imu)
+}
+
 impl Args {
     /// The simulation these flags describe.
     pub fn config(&self) -> Result<SimConfig> {
@@ -110,7 +125,7 @@ impl Args {
         let imu = if self.ideal {
             ImuSpec::ideal()
         } else {
-            hal_sim::sensor::resolve(&self.sensor)?
+            sensor_to_simulate(&self.sensor)?
         };
         let rate = self.rate_dps.to_radians();
         let scheme = match self.scheme {

@@ -8,7 +8,6 @@
 
 use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
-use hal_sim::sensor::G0;
 
 use super::Diagnosis;
 
@@ -40,88 +39,99 @@ fn mean_of(d: &Diagnosis, effect: EffectId, name: &str) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
-/// The sensor file of `d` on top of `base`.
-pub fn sensor_file(d: &Diagnosis, base: Option<ImuSpec>, what: &str) -> String {
-    let mut s = base.unwrap_or_else(|| ImuSpec {
-        name: "measured".into(),
-        model: "measured".into(),
-        ..ImuSpec::ideal()
-    });
-    let from = s.name.clone();
-    s.name = format!("{from}-diagnosed");
-    let mut notes = vec![
-        format!("Written by rins diagnose from {what}: the terms its findings measured"),
-        format!("(the RMS over the axes they were found on); the rest is {from:?}'s."),
-    ];
-    // (what, the finding, its parameters' prefix and suffix, the field).
+/// The sensor file of `d` (recording `rec`) on top of `base`
+/// ([`crate::sensor_file::Written`]): the noise of the final residual
+/// (white noise and bias instability per triad where the run supports
+/// them, the quietest axis's: motion the model leaves out only adds; the
+/// table axis left out), the resolution and full scale the samples show,
+/// and what the findings measured of the sensor itself.
+pub fn sensor_file(
+    d: &Diagnosis,
+    rec: &recording::Recording,
+    base: Option<crate::sensor_file::Base>,
+    what: &str,
+) -> String {
+    let mut w = crate::sensor_file::Written::start(base, "diagnose", what);
+    let turned = d.details.theta.windows(2).any(|w| w[0] != w[1]);
+    w.noise(
+        &d.details.allan,
+        turned.then_some(d.details.axis_index),
+        crate::sensor_file::Combine::Quietest,
+    );
+    w.seen_in_data(rec);
+    let intercepts: Vec<Option<f64>> = d.details.nominal.iter().map(|n| n[0]).collect();
+    w.bias_from_run(&intercepts);
+    // (the term's key, the finding, its parameters' prefix and suffix, the field).
     type Field = fn(&mut ImuSpec) -> &mut f64;
     let measured: [(&str, EffectId, &str, &str, Field); 6] = [
         (
-            "gyro g-sensitivity",
+            "gyro.g_sensitivity_dps_per_g",
             EffectId::GyroGSensitivity,
             "g_sens_",
             "_radps_per_mps2",
             |s| &mut s.g_sensitivity,
         ),
         (
-            "gyro scale nonlinearity",
+            "gyro.nonlinearity_pct_fs",
             EffectId::GyroScaleNonlinearity,
             "k2_",
             "_per_radps",
             |s| &mut s.gyro.k2,
         ),
         (
-            "gyro scale asymmetry",
+            "gyro.asymmetry_pct",
             EffectId::GyroScaleAsymmetry,
             "asymmetry_",
             "",
             |s| &mut s.gyro.asymmetry,
         ),
         (
-            "accel scale nonlinearity",
+            "accel.nonlinearity_pct_fs",
             EffectId::AccelScaleNonlinearity,
             "k2_",
             "_per_mps2",
             |s| &mut s.accel.k2,
         ),
         (
-            "gyro bias temperature coefficient",
+            "gyro.temp_bias_dps_per_c",
             EffectId::TemperatureBias,
             "temp_bias_",
             "_radps_per_degc",
             |s| &mut s.gyro.temp_bias,
         ),
         (
-            "accel bias temperature coefficient",
+            "accel.temp_bias_mg_per_c",
             EffectId::TemperatureBias,
             "temp_bias_",
             "_mps2_per_degc",
             |s| &mut s.accel.temp_bias,
         ),
     ];
-    for (name, effect, prefix, suffix, field) in measured {
+    for (key, effect, prefix, suffix, field) in measured {
         if let Some(v) = rms_of(d, effect, prefix, suffix) {
-            *field(&mut s) = v;
-            notes.push(format!("measured: {name}"));
+            w.measured(key, |s| *field(s) = v);
         }
     }
     if let Some(l) = mean_of(d, EffectId::TimeOffset, "time_offset_s") {
-        s.latency_s = l;
-        notes.push("measured: latency".into());
+        w.measured("gyro.latency_s", |s| s.latency_s = l);
     }
     if let Some(a) = mean_of(d, EffectId::TimeOffset, "accel_time_offset_s") {
-        s.accel_latency_s = Some(a);
-        notes.push("measured: accelerometer latency".into());
+        w.measured("accel.latency_s", |s| s.accel_latency_s = Some(a));
     }
-    // A nonlinearity is written against the full scale: keep it when the
-    // base has none.
-    for (t, unit) in [(&mut s.gyro, 1.0), (&mut s.accel, 1.0 / G0)] {
+    // A nonlinearity is written against the full scale: without one it
+    // is unknown, not zero.
+    for (t, key) in [
+        (&mut w.spec.gyro, "gyro.nonlinearity_pct_fs"),
+        (&mut w.spec.accel, "accel.nonlinearity_pct_fs"),
+    ] {
         if t.k2 > 0.0 && t.full_scale <= 0.0 {
-            notes.push(format!(
-                "no full scale to write a nonlinearity of {:.3e} against ({unit})",
+            w.notes.push(format!(
+                "{key}: measured k2 {:.3e} (SI), but there is no full scale to write it against",
                 t.k2
             ));
             t.k2 = 0.0;
+            w.spec.unknown.push(key.into());
+            w.from.measured.retain(|m| m != key);
         }
     }
     for f in &d.findings {
@@ -139,8 +149,9 @@ pub fn sensor_file(d: &Diagnosis, base: Option<ImuSpec>, what: &str) -> String {
                 .iter()
                 .map(|p| format!("{} = {:.4e}", p.name, p.value))
                 .collect();
-            notes.push(format!("not the sensor's ({}): {}", f.effect, p.join(", ")));
+            w.notes
+                .push(format!("not the sensor's ({}): {}", f.effect, p.join(", ")));
         }
     }
-    hal_sim::sensor::write(&s, &notes)
+    w.text()
 }

@@ -58,8 +58,8 @@ pub struct ImportReport {
     pub clock_drift_ppm: Option<f64>,
     /// The logger clock's offset floor's RMS about its line, ms.
     pub clock_floor_rms_ms: Option<f64>,
-    /// With a regular clock: the sightings' spread about it and their mean
-    /// lag behind it, ms.
+    /// With a regular clock: the sightings' largest lag behind it and
+    /// their mean lag, ms.
     pub sighting_lag_ms: Option<(f64, f64)>,
     /// Fixes written.
     pub fixes: usize,
@@ -113,39 +113,14 @@ fn sample_times(
 }
 
 /// A regular sensor clock through the first sightings of its samples
-/// (`[time] regular = true`): a logger that polls sees each sample some
-/// time after it was made, never before, so the samples' instants are the
-/// least-squares line through the sightings, lowered to the earliest one.
-/// Refused when a poll gap is longer than the sensor's period (a sample may
-/// have been missed: the count would slip) or the sightings stray more than
-/// two periods from the line.
-fn regular_clock(t: &[f64], polls: &[f64], rep: &mut ImportReport) -> Result<Vec<f64>> {
-    let n = t.len() as f64;
-    let mk = (n - 1.0) / 2.0;
-    let mt = t.iter().sum::<f64>() / n;
-    let (mut sxy, mut sxx) = (0.0, 0.0);
-    for (k, ti) in t.iter().enumerate() {
-        sxy += (k as f64 - mk) * (ti - mt);
-        sxx += (k as f64 - mk).powi(2);
-    }
-    let period = sxy / sxx;
-    let line = |k: usize| mt + period * (k as f64 - mk);
-    let r: Vec<f64> = t.iter().enumerate().map(|(k, ti)| ti - line(k)).collect();
-    let (lo, hi) = r.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, x| {
-        (a.0.min(*x), a.1.max(*x))
-    });
-    let gap = polls.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
-    if gap > period {
-        bail!("[time] regular: a poll gap of {:.1} ms is longer than the sensor's period ({:.2} ms): samples may be missing", gap * 1e3, period * 1e3);
-    }
-    // Every sample is seen (no poll gap is a period long), so a sighting
-    // lags its instant by less than a poll gap plus the stamp's rounding:
-    // under two periods.
-    if hi - lo > 2.0 * period {
-        bail!("[time] regular: the sightings stray {:.1} ms about a regular clock, more than two periods ({:.2} ms)", (hi - lo) * 1e3, period * 1e3);
-    }
-    rep.sighting_lag_ms = Some(((hi - lo) * 1e3, (r.iter().sum::<f64>() / n - lo) * 1e3));
-    Ok((0..t.len()).map(|k| line(k) + lo).collect())
+/// (`[time] regular = true`): a logger sees each sample some time after
+/// it was made, never before: polled faster than the sensor, or delivered
+/// in bursts ([`recording::clock::regular`], the one home of the rule; a
+/// lost sample is refused).
+fn regular_clock(t: &[f64], rep: &mut ImportReport) -> Result<Vec<f64>> {
+    let r = recording::clock::regular(t).map_err(|e| anyhow!("[time] regular: {e}"))?;
+    rep.sighting_lag_ms = Some((r.max_lag_s * 1e3, r.mean_lag_s * 1e3));
+    Ok(r.t_s)
 }
 
 /// Imports an RTKLIB solution and an IMU CSV.
@@ -165,8 +140,7 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
     };
     let mut t_gpst = sample_times(&map, &csv, input, &mut rep)?;
     if map.regular {
-        let polls: Vec<f64> = csv.rows.iter().map(|r| r.0).collect();
-        t_gpst = regular_clock(&t_gpst, &polls, &mut rep)?;
+        t_gpst = regular_clock(&t_gpst, &mut rep)?;
     }
     let (t0, t_end) = match (t_gpst.first(), t_gpst.last()) {
         (Some(a), Some(b)) => (*a, *b),
@@ -286,7 +260,7 @@ pub fn report_text(r: &ImportReport, out: &std::path::Path) -> String {
     }
     if let Some((spread, lag)) = r.sighting_lag_ms {
         s.push_str(&format!(
-            "samples on the sensor's regular clock: the logger saw them {lag:.1} ms late on average ({spread:.1} ms spread)\n"
+            "samples on the sensor's regular clock: the logger saw them {lag:.1} ms late on average ({spread:.1} ms at most)\n"
         ));
     }
     s.push_str("the base's heading at the start is not known: navigate --gnss finds it from the fixes' velocity");
