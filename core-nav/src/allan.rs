@@ -256,8 +256,8 @@ pub struct NoiseFit {
     pub gm_sigma: f64,
     /// Gauss-Markov correlation time, s (0 when `gm_sigma` is 0).
     pub gm_tau_s: f64,
-    /// Bias instability, unit: the fitted curve's floor (its minimum over
-    /// the points' taus) over 0.664 (IEEE Std 952: the floor of a flicker
+    /// Bias instability, unit: the fitted curve's floor (where it first
+    /// stops falling over the points' taus) over 0.664 (IEEE Std 952: the floor of a flicker
     /// bias is 0.664 B), the one definition every tool reports.
     pub bias_instability: f64,
     /// Whether the points show the floor `bias_instability` comes from:
@@ -444,11 +444,25 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
         tau_max_s: hi,
         floor_tau_s: hi,
     };
-    // The floor and where it lies (the last of equal minima).
-    let (floor, at) = pts
-        .iter()
-        .map(|p| (fit.adev_at(p.tau_s), p.tau_s))
-        .fold((f64::INFINITY, 0.0), |b, x| if x.0 <= b.0 { x } else { b });
+    // The floor: where the fitted curve first stops falling over the
+    // points' taus (a Gauss-Markov bias's bump rises after it, and falls
+    // again past its peak: that later fall is not the floor), else its
+    // value at the longest tau, a bound.
+    let mut taus = [0.0f64; 64];
+    for (slot, p) in taus.iter_mut().zip(pts) {
+        *slot = p.tau_s;
+    }
+    let taus = taus.get_mut(..n).unwrap_or(&mut []);
+    taus.sort_by(f64::total_cmp);
+    let mut floor = (f64::INFINITY, hi);
+    for &tau in taus.iter() {
+        let a = fit.adev_at(tau);
+        if a > floor.0 {
+            break;
+        }
+        floor = (a, tau);
+    }
+    let (floor, at) = floor;
     fit.bias_instability = if floor.is_finite() {
         floor / FLOOR_OVER_B
     } else {

@@ -555,6 +555,8 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             heading_deg,
             pitch_deg,
             roll_deg,
+            heading_sigma_deg: None,
+            level_sigma_deg: None,
             imu_model: Some(cfg.imu.model.to_string()),
             imu_rate_hz: cfg.imu_rate_hz,
             imu_sample: recording::SampleKind::Instantaneous,

@@ -62,6 +62,12 @@ pub struct Meta {
     pub pitch_deg: f64,
     /// See `heading_deg`.
     pub roll_deg: f64,
+    /// `[base] heading_sigma_deg`: the stated heading's 1-sigma, deg
+    /// (`None`: unknown, not zero).
+    pub heading_sigma_deg: Option<f64>,
+    /// `[base] level_sigma_deg`: the stated roll's and pitch's 1-sigma,
+    /// deg (`None`: unknown).
+    pub level_sigma_deg: Option<f64>,
     /// IMU model, free text.
     pub imu_model: Option<String>,
     /// IMU sample rate, Hz.
@@ -130,6 +136,8 @@ impl Default for Meta {
             heading_deg: 0.0,
             pitch_deg: 0.0,
             roll_deg: 0.0,
+            heading_sigma_deg: None,
+            level_sigma_deg: None,
             imu_model: None,
             imu_rate_hz: 100.0,
             imu_sample: SampleKind::Instantaneous,
@@ -433,6 +441,12 @@ impl Recording {
         out!(s, "heading_deg = {}\n", toml_f64(m.heading_deg));
         out!(s, "pitch_deg = {}\n", toml_f64(m.pitch_deg));
         out!(s, "roll_deg = {}\n", toml_f64(m.roll_deg));
+        if let Some(x) = m.heading_sigma_deg {
+            out!(s, "heading_sigma_deg = {}\n", toml_f64(x));
+        }
+        if let Some(x) = m.level_sigma_deg {
+            out!(s, "level_sigma_deg = {}\n", toml_f64(x));
+        }
         out!(s, "\n[imu]\n");
         if let Some(model) = &m.imu_model {
             out!(s, "model = {}\n", q(model));
@@ -565,6 +579,21 @@ fn opt_str(t: &toml::Table, table: &str, name: &str) -> Option<String> {
 ///
 /// # Errors
 /// TOML syntax (with its line), a wrong `format`, a missing key (named), a
+/// An optional `[base]` sigma, deg: positive and finite when present.
+fn opt_sigma(t: &toml::Table, key: &str, path: &Path) -> Result<Option<f64>, RecordingError> {
+    match t.get("base").and_then(|b| b.get(key)) {
+        None => Ok(None),
+        Some(v) => match num(v, &format!("base.{key}"), path)? {
+            x if x >= 0.0 && x.is_finite() => Ok(Some(x)),
+            x => Err(err(
+                path,
+                None,
+                format!("base.{key} = {x}: a 1-sigma must be >= 0 (0: exact)"),
+            )),
+        },
+    }
+}
+
 /// non-finite or non-positive rate, an unknown axis.
 pub fn parse_meta(text: &str, path: &Path) -> Result<Meta, RecordingError> {
     let t: toml::Table = text.parse().map_err(|e: toml::de::Error| {
@@ -641,6 +670,8 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Meta, RecordingError> {
         heading_deg: req_num(&t, "base", "heading_deg", path)?,
         pitch_deg: req_num(&t, "base", "pitch_deg", path)?,
         roll_deg: req_num(&t, "base", "roll_deg", path)?,
+        heading_sigma_deg: opt_sigma(&t, "heading_sigma_deg", path)?,
+        level_sigma_deg: opt_sigma(&t, "level_sigma_deg", path)?,
         imu_model: opt_str(&t, "imu", "model"),
         imu_rate_hz: req_num(&t, "imu", "rate_hz", path)?,
         imu_sample,

@@ -244,3 +244,67 @@ fn sigmas(
         earth_h_radps: earth_h,
     }
 }
+
+/// Where each part of the start attitude came from.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Picked {
+    /// Roll, pitch, heading, deg.
+    pub euler_deg: [f64; 3],
+    /// The level is `meta.toml`'s (else the alignment's).
+    pub level_from_meta: bool,
+    /// The heading is `meta.toml`'s (else the alignment's).
+    pub heading_from_meta: bool,
+    /// Why, in words.
+    pub why: String,
+}
+
+/// The better source of each part of the start attitude: `meta.toml`'s
+/// stated attitude where its 1-sigma (`[base] level_sigma_deg`,
+/// `heading_sigma_deg`) is smaller than the alignment's own (or the
+/// alignment's is unknown), else the alignment's. A stated attitude
+/// without a sigma is not preferred (its sigma is unknown): the alignment
+/// stands, as before, and `--attitude-from-meta` forces `meta.toml`'s.
+pub fn pick(al: &StaticAlignment, meta: &recording::Meta) -> Picked {
+    let better = |stated: Option<f64>, aligned: f64| match stated {
+        // An unknown (NaN) alignment sigma loses to any stated one.
+        Some(s) => aligned.is_nan() || aligned > s,
+        None => false,
+    };
+    let level = better(meta.level_sigma_deg, al.sigma_deg[0].max(al.sigma_deg[1]));
+    // A heading the alignment took from meta.toml is meta.toml's anyway.
+    let heading = !al.gyrocompassed || better(meta.heading_sigma_deg, al.sigma_deg[2]);
+    let [r, p, h] = al.euler_deg;
+    let euler_deg = [
+        if level { meta.roll_deg } else { r },
+        if level { meta.pitch_deg } else { p },
+        if heading { meta.heading_deg } else { h },
+    ];
+    let say = |what: &str, from_meta: bool, stated: Option<f64>, aligned: f64| match (
+        from_meta, stated,
+    ) {
+        (true, Some(s)) => {
+            format!("{what} meta.toml's (+- {s} deg stated, the alignment's +- {aligned:.3})")
+        }
+        (true, None) => format!("{what} meta.toml's"),
+        (false, Some(s)) => {
+            format!("{what} the alignment's (+- {aligned:.3} deg, meta.toml's +- {s} stated)")
+        }
+        (false, None) => format!("{what} the alignment's (meta.toml states no sigma)"),
+    };
+    let why = format!(
+        "start attitude: {}; {}",
+        say(
+            "level",
+            level,
+            meta.level_sigma_deg,
+            al.sigma_deg[0].max(al.sigma_deg[1])
+        ),
+        say("heading", heading, meta.heading_sigma_deg, al.sigma_deg[2])
+    );
+    Picked {
+        euler_deg,
+        level_from_meta: level,
+        heading_from_meta: heading,
+        why,
+    }
+}

@@ -25,7 +25,8 @@ enum Tool {
     Calibrate(cmd::calibrate::Args),
     /// Navigate a recording: trajectory.csv (rins-trajectory/1) and plots.
     Navigate(cmd::navigate::Args),
-    /// Import a real log (an RTKLIB solution plus an IMU CSV) as a recording.
+    /// Import a real log as a recording: any IMU CSV, an RTKLIB solution
+    /// with an IMU CSV, KF-GINS files.
     Import(cmd::import::Args),
     /// Allan deviation of the six channels, noise fit, JSON and plot.
     Allan(cmd::allan::Args),

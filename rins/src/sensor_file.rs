@@ -166,8 +166,14 @@ impl Written {
             if f.iter().all(|x| x.floor_seen) {
                 let b = core_nav::allan::FLOOR_OVER_B
                     * rms(&f.iter().map(|x| x.bias_instability).collect::<Vec<_>>());
+                // The floor is a flat stretch of the curve (IEEE 952's
+                // flicker floor): simulated as the flicker bank, whose floor
+                // is the stated one over three decades of tau, not as one
+                // Gauss-Markov bump (whose valley before the bump lies
+                // below its peak).
                 self.measured(floor, |s| {
-                    triad(s).bias_instability = b / ALLAN_PEAK_PER_GM_SIGMA
+                    triad(s).bias_instability = b / ALLAN_PEAK_PER_GM_SIGMA;
+                    triad(s).flicker = true;
                 });
                 let taus: Vec<f64> = f
                     .iter()
@@ -206,6 +212,38 @@ impl Written {
                     x.rrw
                 ));
             }
+        }
+    }
+
+    /// A measured white noise holds the resolution's rounding (`lsb^2 /
+    /// 12` per sample, a density of `lsb / sqrt(12 rate)`), which the
+    /// file's resolution term gives again: the file's noise is the
+    /// sensor's own, the rounding taken out (a noise at or under the
+    /// rounding is unknown: the resolution hides it).
+    fn quantisation_out(&mut self, name: &str, triad: TriadOf, lsb: f64, rate_hz: f64) {
+        let key = if name == "gyro" {
+            terms::GYRO_NOISE
+        } else {
+            terms::ACCEL_NOISE
+        };
+        if !self.from.measured.iter().any(|m| m == key) {
+            return;
+        }
+        let q2 = lsb * lsb / (12.0 * rate_hz);
+        let w = triad(&mut self.spec).white;
+        if w * w > q2 {
+            triad(&mut self.spec).white = (w * w - q2).sqrt();
+            self.notes.push(format!(
+                "{name}: white noise {w:.4e} measured, the resolution's rounding {:.4e} taken out (SI)",
+                q2.sqrt()
+            ));
+        } else {
+            self.spec.unknown.push(key.into());
+            self.from.measured.retain(|m| m != key);
+            self.notes.push(format!(
+                "{name}: white noise unknown: {w:.4e} measured is within the resolution's rounding {:.4e} (SI)",
+                q2.sqrt()
+            ));
         }
     }
 
@@ -267,6 +305,7 @@ impl Written {
             let mean = steps.iter().sum::<f64>() / steps.len().max(1) as f64;
             if !steps.is_empty() && steps.iter().all(|x| (x / mean - 1.0).abs() < 0.01) {
                 self.measured(lsb, |s| triad(s).lsb = mean);
+                self.quantisation_out(name, triad, mean, rec.meta.imu_rate_hz);
             } else {
                 self.notes
                     .push(format!("{name}: no common resolution seen in the samples"));

@@ -41,14 +41,16 @@ fn allan_writes_a_sensor_file_that_simulate_and_navigate_take() {
     ]);
     ok(&["allan", &s("static"), "--sensor-out", &s("unit.toml")]);
     let unit = hal_sim::sensor::resolve(&s("unit.toml")).unwrap();
-    // The gyro's white noise is the datasheet's density and the 16-bit
-    // output's quantisation (LSB / sqrt(12) over the 100 Hz band):
-    // sqrt(0.0028^2 + (0.061 / sqrt(12) / 10)^2) = 0.0033 deg/s/sqrt(Hz);
+    // The gyro's white noise is the datasheet's density: the file holds
+    // the sensor's own, the 16-bit output's rounding (LSB / sqrt(12) over
+    // the 100 Hz band, which the file's resolution gives) taken out;
     // 300 s of samples give it to a few per cent (the fit's sigma), 10 %
     // is its bound here.
-    let want = (0.0028f64.powi(2) + (1.0 / 16.4 / 12f64.sqrt() / 10.0).powi(2)).sqrt();
+    let want = 0.0028f64;
     let got = unit.gyro.white.to_degrees();
     assert!((got / want - 1.0).abs() < 0.1, "{got} vs {want}");
+    // The resolution it saw: the datasheet's 16.4 LSB per deg/s.
+    assert!((unit.gyro.lsb.to_degrees() * 16.4 - 1.0).abs() < 0.01);
     // What Allan cannot see comes from the recording's own model.
     let icm = hal_sim::sensor::resolve("icm42688").unwrap();
     assert_eq!(
@@ -138,11 +140,11 @@ fn diagnose_writes_the_latency_it_found_into_a_sensor_file() {
     // diagnose's latency on such runs is good to well under 0.1 ms (its own
     // sigma); 0.5 ms is this test's bound.
     assert!((unit.latency_s - 0.005).abs() < 5e-4, "{}", unit.latency_s);
-    // The noise it measured (the axes across the table's): the NAV440's
-    // ARW and its 16-bit output's quantisation over the 100 Hz band,
-    // within 10 % (300 s of samples).
+    // The noise it measured (the axes across the table's, the output's
+    // rounding taken out): the NAV440's ARW within 10 % (300 s of
+    // samples).
     let nav = hal_sim::sensor::resolve("nav440").unwrap();
-    let want = (nav.gyro.white.powi(2) + nav.gyro.lsb.powi(2) / 12.0 / 100.0).sqrt();
+    let want = nav.gyro.white;
     assert!(
         (unit.gyro.white / want - 1.0).abs() < 0.1,
         "{} vs {want}",

@@ -45,6 +45,8 @@ pub const EXTERNAL: [Dataset; 3] = [
             "diagnose_real_noise::a_true_time_offset_on_reversals_is_named_alone",
             "diagnose_real_noise::g_sensitivity_and_encoder_error_on_a_one_way_run_are_look_alikes",
             "twin::on_real_noise_every_hidden_effect_gives_a_close_twin",
+            "own_data::a_real_static_log_from_a_plain_csv_round_trips_through_a_sensor_file",
+            "own_data::a_log_stamped_on_arrival_in_bursts_gives_the_regular_logs_allan_figures",
         ],
     },
     Dataset {

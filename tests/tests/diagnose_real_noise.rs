@@ -212,6 +212,8 @@ fn reversals(duration_s: f64) -> recording::Recording {
             heading_deg: 0.0,
             pitch_deg: 0.0,
             roll_deg: 0.0,
+            heading_sigma_deg: None,
+            level_sigma_deg: None,
             imu_rate_hz: 100.0,
             encoder_rate_hz: 50.0,
             ..Meta::default()

@@ -15,8 +15,16 @@ pub struct Args {
 /// The forms a log comes in.
 #[derive(clap::Subcommand)]
 pub enum From {
+    /// Any logger's IMU-only CSV described by a column map
+    /// (rins-columns/1, time source "log" or "rate"): a static-base
+    /// recording; arrival stamps put on the sensor's regular clock.
+    #[command(
+        override_usage = "rins import csv --imu-file <IMU_FILE> --columns <COLUMNS> \\
+         --sensor <SENSOR> --lat-deg <LAT_DEG> --out <OUT> [OPTIONS]"
+    )]
+    Csv(CsvArgs),
     /// An RTKLIB `.pos` solution plus an IMU CSV described by a column map
-    /// (rins-columns/1), its clock through an RTKLIB `.tag` file.
+    /// (rins-columns/1), its clock through an RTKLIB `.tag` file or GPST.
     #[command(
         override_usage = "rins import rtklib --pos <POS> --imu-file <IMU_FILE> \\
          --columns <COLUMNS> --sensor <SENSOR> --out <OUT> [OPTIONS]"
@@ -29,6 +37,48 @@ pub enum From {
          --sensor <SENSOR> --out <OUT> [OPTIONS]"
     )]
     KfGins(KfGinsArgs),
+}
+
+/// `rins import csv`.
+#[derive(clap::Args)]
+pub struct CsvArgs {
+    /// The IMU CSV.
+    #[arg(long)]
+    pub imu_file: PathBuf,
+    /// Its column map (rins-columns/1, TOML; time.source "log" or "rate").
+    #[arg(long)]
+    pub columns: PathBuf,
+    /// The sensor: a shipped name or a sensor file (its model name goes to
+    /// meta.toml; its mounting turns the samples into the base frame).
+    #[arg(long)]
+    pub sensor: String,
+    /// The site's latitude, deg (north positive).
+    #[arg(long, allow_negative_numbers = true)]
+    pub lat_deg: f64,
+    /// The site's height above the ellipsoid, m.
+    #[arg(long, allow_negative_numbers = true, default_value_t = 0.0)]
+    pub height_m: f64,
+    /// The base's attitude as known from outside: roll, pitch, heading,
+    /// deg (without it: level from the data, any heading).
+    #[arg(
+        long,
+        value_name = "ROLL,PITCH,HEADING",
+        value_delimiter = ',',
+        allow_negative_numbers = true
+    )]
+    pub base_deg: Option<Vec<f64>>,
+    /// The stated heading's 1-sigma, deg (with --base-deg).
+    #[arg(long, requires = "base_deg")]
+    pub heading_sigma_deg: Option<f64>,
+    /// The stated roll's and pitch's 1-sigma, deg (with --base-deg).
+    #[arg(long, requires = "base_deg")]
+    pub level_sigma_deg: Option<f64>,
+    /// The recording directory to write (must not exist).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write what was counted as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// `rins import kf-gins`.
@@ -89,6 +139,7 @@ pub struct RtklibArgs {
 /// Runs `rins import`.
 pub fn run(a: &Args) -> Result<()> {
     match &a.from {
+        From::Csv(c) => csv(c),
         From::Rtklib(r) => rtklib(r),
         From::KfGins(k) => kf_gins(k),
     }
@@ -146,6 +197,39 @@ fn rtklib(a: &RtklibArgs) -> Result<()> {
     let (rec, rep) = import::rtklib(&input)?;
     rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
     println!("{}", import::report_text(&rep, &a.out));
+    if let Some(j) = &a.json {
+        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
+    }
+    Ok(())
+}
+
+fn csv(a: &CsvArgs) -> Result<()> {
+    if a.out.exists() {
+        bail!(
+            "{} exists: a recording is never rewritten in place",
+            a.out.display()
+        );
+    }
+    let base = match a.base_deg.as_deref() {
+        None => None,
+        Some(&[r, p, h]) => Some([r, p, h]),
+        Some(v) => bail!(
+            "--base-deg takes roll,pitch,heading (three values), got {}",
+            v.len()
+        ),
+    };
+    let input = import::csv::CsvInput {
+        imu: a.imu_file.clone(),
+        columns: a.columns.clone(),
+        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+        lat_deg: a.lat_deg,
+        height_m: a.height_m,
+        base,
+        base_sigma_deg: [a.level_sigma_deg, a.heading_sigma_deg],
+    };
+    let (rec, rep) = import::csv::import(&input)?;
+    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
+    print!("{}", import::csv::report_text(&rep, &a.out));
     if let Some(j) = &a.json {
         write_file(j, &serde_json::to_string_pretty(&rep)?)?;
     }

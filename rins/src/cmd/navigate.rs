@@ -42,7 +42,8 @@ pub struct Args {
     pub hold_height: bool,
     /// Start from the base attitude in meta.toml instead of aligning on
     /// the still start (levelling; gyrocompassing where the gyros resolve
-    /// the earth's rate).
+    /// the earth's rate). Without it, each of level and heading comes from
+    /// meta.toml where its stated sigma is the smaller.
     #[arg(long, conflicts_with = "gnss")]
     pub attitude_from_meta: bool,
     /// Also write the summary as JSON here.
@@ -242,7 +243,8 @@ pub fn run(a: &Args) -> Result<()> {
     };
     let m = &rec.meta;
     let meta_rph = [m.roll_deg, m.pitch_deg, m.heading_deg];
-    let start_rph = aligned.as_ref().map_or(meta_rph, |al| al.euler_deg);
+    let picked = aligned.as_ref().map(|al| rins::align::pick(al, m));
+    let start_rph = picked.as_ref().map_or(meta_rph, |p| p.euler_deg);
     let opt = NavOptions {
         start_s: a.start_s,
         end_s: a.end_s,
@@ -273,7 +275,12 @@ pub fn run(a: &Args) -> Result<()> {
         a.out.display()
     );
     match &aligned {
-        Some(al) => print!("{}", alignment_text(al, meta_rph)),
+        Some(al) => {
+            print!("{}", alignment_text(al, meta_rph));
+            if let Some(p) = &picked {
+                println!("{}", p.why);
+            }
+        }
         None if a.attitude_from_meta => {
             println!("start attitude: meta.toml's (--attitude-from-meta)")
         }
@@ -286,7 +293,7 @@ pub fn run(a: &Args) -> Result<()> {
         write_file(
             p,
             &serde_json::to_string_pretty(
-                &serde_json::json!({"errors": e, "refused_steps": faults, "alignment": aligned}),
+                &serde_json::json!({"errors": e, "refused_steps": faults, "alignment": aligned, "start_attitude": picked}),
             )?,
         )?;
     }

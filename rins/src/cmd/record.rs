@@ -67,6 +67,8 @@ pub fn run(a: &Args) -> Result<()> {
         heading_deg: a.site.heading_deg,
         pitch_deg: a.site.pitch_deg,
         roll_deg: a.site.roll_deg,
+        heading_sigma_deg: None,
+        level_sigma_deg: None,
         imu_model: Some("TDK ICM-42688-P (board)".into()),
         ..recording::Meta::default()
     };

@@ -20,8 +20,13 @@
 //! [time]
 //! source = "tag"        # "tag": the logger's clock through an RTKLIB .tag file
 //!                       # "gpst": the time column is GPST s (Unix-epoch scale)
+//!                       # "log": the time column on the logger's own clock
+//!                       # "rate": no time column: sample k at k / rate_hz
 //! regular = true        # the sensor samples on its own regular clock
 //! ```
+//!
+//! `rins import rtklib` takes "tag" and "gpst"; `rins import csv` (an
+//! IMU-only log) takes "log" and "rate".
 
 use anyhow::{anyhow, bail, Result};
 use std::path::Path;
@@ -33,6 +38,10 @@ pub enum TimeSource {
     Tag,
     /// The time column is already GPST seconds (Unix-epoch scale).
     Gpst,
+    /// The time column on the logger's own clock (its first row is 0).
+    Log,
+    /// No time column: sample `k` at `k / rate_hz` (every row a sample).
+    Rate,
 }
 
 /// A parsed column map.
@@ -45,7 +54,7 @@ pub struct ColumnMap {
     /// The sensor's nominal output rate, Hz.
     pub rate_hz: f64,
     /// Column of the time, of the gyros (x, y, z), of the accelerometers.
-    time: Col,
+    time: Option<Col>,
     gyro: [Col; 3],
     accel: [Col; 3],
     /// Factors to s, rad/s, m/s^2.
@@ -186,21 +195,31 @@ impl ColumnMap {
         let source = match sub("time")?.get("source").and_then(|v| v.as_str()) {
             Some("tag") => TimeSource::Tag,
             Some("gpst") => TimeSource::Gpst,
-            other => bail!("time.source = {other:?}: \"tag\" or \"gpst\""),
+            Some("log") => TimeSource::Log,
+            Some("rate") => TimeSource::Rate,
+            other => bail!("time.source = {other:?}: \"tag\", \"gpst\", \"log\" or \"rate\""),
+        };
+        let time = match (cols.get("time"), source) {
+            (Some(_), TimeSource::Rate) => {
+                bail!(
+                    "columns.time with time.source = \"rate\": drop one (\"log\" reads the column)"
+                )
+            }
+            (None, TimeSource::Rate) => None,
+            (Some(v), _) => Some(col(v, "columns.time", header)?),
+            (None, _) => bail!("columns.time is required (or time.source = \"rate\")"),
         };
         Ok(Self {
             header,
             delimiter,
             rate_hz,
-            time: col(
-                cols.get("time")
-                    .ok_or_else(|| anyhow!("columns.time is required"))?,
-                "columns.time",
-                header,
-            )?,
+            time,
             gyro: triple(cols, "gyro", header)?,
             accel: triple(cols, "accel", header)?,
-            time_s: unit("time", &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?,
+            time_s: match source {
+                TimeSource::Rate => 1.0,
+                _ => unit("time", &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6)])?,
+            },
             gyro_si: unit(
                 "gyro",
                 &[("dps", core::f64::consts::PI / 180.0), ("radps", 1.0)],
@@ -286,7 +305,10 @@ impl ColumnMap {
                         anyhow!("{what}:{line}: column {i} is {s:?}, not a finite number")
                     })
             };
-            let stamp = get(&self.time)? * self.time_s;
+            let stamp = match &self.time {
+                Some(c) => get(c)? * self.time_s,
+                None => (out.rows.len()) as f64 / self.rate_hz,
+            };
             let mut v = [0.0; 6];
             for (slot, c) in v.iter_mut().zip(self.gyro.iter().chain(&self.accel)) {
                 *slot = get(c)?;
@@ -297,7 +319,9 @@ impl ColumnMap {
                 }
             }
             out.rows.push((stamp, lf, crlf));
-            if last == Some(v) {
+            // On the nominal clock every row is a sample (a quantised
+            // still sensor may repeat itself).
+            if last == Some(v) && self.time.is_some() {
                 out.repeats += 1;
                 continue;
             }
@@ -324,7 +348,8 @@ impl ColumnMap {
         if self.header {
             return names.len();
         }
-        std::iter::once(&self.time)
+        self.time
+            .iter()
             .chain(&self.gyro)
             .chain(&self.accel)
             .filter_map(|c| match c {

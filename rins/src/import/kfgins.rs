@@ -193,6 +193,8 @@ pub fn import(input: &KfGinsInput) -> Result<(Recording, super::ImportReport)> {
         height_m: h,
         gravity_mps2: None,
         roll_deg: start.as_ref().map_or(0.0, |v| v[8]),
+        heading_sigma_deg: None,
+        level_sigma_deg: None,
         pitch_deg: start.as_ref().map_or(0.0, |v| v[9]),
         heading_deg: start.as_ref().map_or(0.0, |v| v[10].rem_euclid(360.0)),
         imu_model: Some(input.sensor.model.clone()),

@@ -7,10 +7,13 @@
 //! - [`rtklib`]: an RTKLIB `.pos` solution plus an IMU CSV described by a
 //!   column map ([`columns`]), its clock put on GPST through an RTKLIB
 //!   `.tag` file ([`tag`]) or already GPST.
+//! - [`csv`]: an IMU-only log by the same column map, its stamps put on
+//!   the sensor's regular clock when they are arrival times.
 //! - [`kfgins`]: KF-GINS text files (IMU increments, GNSS with sigmas, a
 //!   reference).
 
 pub mod columns;
+pub mod csv;
 pub mod kfgins;
 pub mod rtklib;
 pub mod tag;
@@ -130,6 +133,16 @@ fn regular_clock(t: &[f64], rep: &mut ImportReport) -> Result<Vec<f64>> {
 /// not belong to the IMU file; no fix inside the IMU's span.
 pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
     let map = columns::ColumnMap::read(&input.columns)?;
+    if matches!(
+        map.source,
+        columns::TimeSource::Log | columns::TimeSource::Rate
+    ) {
+        bail!(
+            "{}: time.source {:?} leaves the log off GPST, where its fixes are: give \"tag\" or \"gpst\" (an IMU-only log: rins import csv)",
+            input.columns.display(),
+            map.source
+        );
+    }
     let csv = map.read_csv(&input.imu)?;
     let epochs = rtklib::read_pos(&input.pos, input.geoid_m)?;
     let mut rep = ImportReport {
@@ -204,6 +217,8 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
         heading_deg: 0.0,
         pitch_deg: 0.0,
         roll_deg: 0.0,
+        heading_sigma_deg: None,
+        level_sigma_deg: None,
         imu_model: Some(input.sensor.model.clone()),
         imu_rate_hz: map.rate_hz,
         imu_sample: SampleKind::Instantaneous,
