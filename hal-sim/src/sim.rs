@@ -555,8 +555,9 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             heading_deg,
             pitch_deg,
             roll_deg,
-            heading_sigma_deg: None,
-            level_sigma_deg: None,
+            // A simulated base is the truth: stated exactly.
+            heading_sigma_deg: Some(0.0),
+            level_sigma_deg: Some(0.0),
             imu_model: Some(cfg.imu.model.to_string()),
             imu_rate_hz: cfg.imu_rate_hz,
             imu_sample: recording::SampleKind::Instantaneous,

@@ -223,14 +223,17 @@ pub fn excluded(rec: &Recording, bad: &[Implausible]) -> (Recording, usize) {
 
 /// Values a lattice is looked for in (the first ones of a channel).
 const LATTICE_VALUES: usize = 50_000;
+/// The fewest distinct values a lattice is read from (a still sensor
+/// whose noise is under its LSB sits on a handful of levels).
+const LATTICE_LEVELS: usize = 4;
 
 /// The step of the lattice a channel's values `x` lie on (an ADC's LSB
 /// in the channel's unit, as printed): the mean of the single-step gaps
 /// between distinct values (those under 1.5 times the smallest; a
 /// printout rounded to fewer digits than the LSB makes them uneven, their
 /// mean is the step), refined by least squares on the levels' indices;
-/// `Some` if at least 99 % of the distinct values (at least 10 of them)
-/// sit within 15 % of a step of the lattice (a print rounding of up to a
+/// `Some` if at least 99 % of the distinct values (at least
+/// [`LATTICE_LEVELS`] of them) sit within 15 % of a step of the lattice (a print rounding of up to a
 /// tenth of a step passes, values off any lattice do not: a simulated
 /// float, a filtered or rescaled output).
 pub fn lattice(x: &[f64]) -> Option<f64> {
@@ -244,7 +247,7 @@ pub fn lattice(x: &[f64]) -> Option<f64> {
     let scale = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     let eps = 1e-9 * scale.max(f64::MIN_POSITIVE);
     v.dedup_by(|a, b| (*a - *b).abs() <= eps);
-    if v.len() < 10 {
+    if v.len() < LATTICE_LEVELS {
         return None;
     }
     let gaps: Vec<f64> = v

@@ -47,7 +47,8 @@ pub fn run(a: &Args) -> Result<()> {
             .max_by(|a, b| (a.t1_s - a.t0_s).total_cmp(&(b.t1_s - b.t0_s)));
         let Some(s) = longest else {
             bail!(
-                "{}: the table turns throughout; Allan deviation needs a still sensor",
+                "{}: the table turns throughout; Allan deviation needs a still sensor: `rins diagnose {}` fits the table's motion and gives the noise of what it leaves (its report's noise lines, and --sensor-out)",
+                a.rec.display(),
                 a.rec.display()
             );
         };

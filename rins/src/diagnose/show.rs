@@ -208,7 +208,7 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         }
         let _ = writeln!(
             o,
-            "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}, confidence {} (noise alone: p = {:.1e}, x the ids tried); held-out rms {:.3e} -> {:.3e}",
+            "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}, confidence {} (noise alone: p = {}, times the effects tried); held-out rms {:.3e} -> {:.3e}",
             f.delta_bic,
             f.snr,
             if f.confidence >= 0.9999 {
@@ -216,7 +216,7 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             } else {
                 format!("{:.4}", f.confidence)
             },
-            f.p_noise,
+            PValue(f.p_noise),
             f.fit.heldout_rms_before,
             f.fit.heldout_rms_after
         );
@@ -249,17 +249,93 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
         o,
         "\nresidual rms per sample, before -> after the findings (deg/h, ug):"
     );
+    let mut rose = vec![];
     for (ch, name) in CHANNELS.iter().enumerate() {
         let (s, _) = eng(ch);
+        let (b, a) = (
+            super::rms(&det.res_before[ch]) * s,
+            super::rms(&det.res_after[ch]) * s,
+        );
+        let up = a > b * 1.0005;
         let _ = writeln!(
             o,
-            "  {:<14} {:>10.1} -> {:>10.1}",
-            name,
-            super::rms(&det.res_before[ch]) * s,
-            super::rms(&det.res_after[ch]) * s
+            "  {name:<14} {b:>10.1} -> {a:>10.1}{}",
+            if up { "  (rises: see below)" } else { "" }
+        );
+        if up {
+            rose.push((ch, *name, 100.0 * (a / b - 1.0)));
+        }
+    }
+    for (ch, name, pct) in rose {
+        let claims: Vec<String> = d
+            .findings
+            .iter()
+            .filter(|f| f.channels.contains(&ch))
+            .map(|f| f.effect.to_string())
+            .collect();
+        let _ = writeln!(
+            o,
+            "  {name} rises {pct:.1} %: the findings are fitted to 0.2 s block means weighted by the noise model, not to this per-sample figure{}",
+            match claims.is_empty() {
+                true => "; no finding claims this channel (its nominal terms were refitted with the others')".to_string(),
+                false => format!(
+                    "; {} claim it: each is kept only where it improves held-out blocks (above), and a finding that makes its own channel worse per sample is suspect",
+                    claims.join(", ")
+                ),
+            }
         );
     }
+    let next = next_steps(d, name);
+    if !next.is_empty() {
+        let _ = writeln!(o, "\nnext:");
+        for n in next {
+            let _ = writeln!(o, "  - {n}");
+        }
+    }
     o
+}
+
+/// A probability as printed: an underflow is a bound, not zero.
+struct PValue(f64);
+
+impl core::fmt::Display for PValue {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        if self.0 < 1e-300 {
+            f.write_str("< 1e-300")
+        } else {
+            write!(f, "{:.1e}", self.0)
+        }
+    }
+}
+
+/// What to do next with this diagnosis of `name`: the sensor file it can
+/// write, the runs that would show what this one cannot, what to check on
+/// the rig for each finding that is the rig's.
+fn next_steps(d: &Diagnosis, name: &str) -> Vec<String> {
+    use hal_sim::catalogue::EffectId as E;
+    let mut v = vec![format!(
+        "write what was measured of the sensor as a sensor file: rins diagnose {name} --sensor-out my.toml (its noise, resolution, latency; the rest unknown or --sensor's)"
+    )];
+    for (id, how) in &d.details.not_observable {
+        v.push(format!("to see {id}: {how}"));
+    }
+    for f in &d.findings {
+        let check = match f.effect {
+            E::LeverArm => "measure the sensor's offset from the table axis on the rig: the finding is that offset",
+            E::AxisTilt => "check the table axis against the sensor's (a shim, or the mount's flatness)",
+            E::TimeOffset => "check how the IMU and the encoder are time-stamped (a latency is a constant delay between them)",
+            E::UntrackedTableMotion => "the table moves between encoder reads: read the encoder faster, or smooth the motor (microstepping, damping)",
+            E::EncoderError => "check the encoder's disc and its mounting (an error repeating each turn)",
+            E::TableAngleHarmonic => "check the table's bearing and drive for a once- or twice-per-turn error",
+            E::TemperatureBias => "record the temperature through a warm-up: a longer run shows the coefficient better",
+            _ => continue,
+        };
+        let line = format!("{}: {check}", f.effect);
+        if !v.contains(&line) {
+            v.push(line);
+        }
+    }
+    v
 }
 
 /// The Allan deviation the noise model predicts at `tau` s: white
