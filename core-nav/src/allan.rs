@@ -453,7 +453,7 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
         *slot = p.tau_s;
     }
     let taus = taus.get_mut(..n).unwrap_or(&mut []);
-    taus.sort_by(f64::total_cmp);
+    taus.sort_unstable_by(f64::total_cmp);
     let mut floor = (f64::INFINITY, hi);
     for &tau in taus.iter() {
         let a = fit.adev_at(tau);
