@@ -14,8 +14,7 @@
 use super::columns::{ColumnMap, TimeSource};
 use anyhow::{anyhow, bail, Result};
 use hal_sim::imu::ImuSpec;
-use nalgebra::Vector3;
-use recording::{ImuRow, Meta, Recording, SampleKind, TableSource};
+use recording::{Meta, Recording, SampleKind, TableSource};
 use std::path::PathBuf;
 
 /// What `rins import csv` takes.
@@ -115,22 +114,7 @@ pub fn import(input: &CsvInput) -> Result<(Recording, CsvReport)> {
     let t = times(&map, &stamps, &mut rep)?;
     let span = t.last().copied().unwrap_or(0.0);
     rep.rate_found_hz = (t.len().saturating_sub(1)) as f64 / span.max(f64::MIN_POSITIVE);
-    let c_s_b = input.sensor.mounting.c_s_b();
-    let imu: Vec<ImuRow> = csv
-        .samples
-        .iter()
-        .zip(&t)
-        .map(|(s, t)| {
-            let g = c_s_b * Vector3::from(s.gyro_radps);
-            let a = c_s_b * Vector3::from(s.accel_mps2);
-            ImuRow {
-                t_s: *t,
-                gyro_radps: [g.x, g.y, g.z],
-                accel_mps2: [a.x, a.y, a.z],
-                temp_c: None,
-            }
-        })
-        .collect();
+    let imu = super::in_base_frame(&csv.samples, &t, &input.sensor);
     rep.imu_samples = imu.len();
     let [roll, pitch, heading] = input.base.unwrap_or([0.0; 3]);
     let [level_sigma, heading_sigma] = input.base_sigma_deg;

@@ -115,6 +115,27 @@ fn sample_times(
     Ok(stamps().map(|s| clock.gpst(s)).collect())
 }
 
+/// The samples at times `t_s` (s) as recording rows in the base frame:
+/// turned by the sensor's mounting (`C_s^b`), the one place every
+/// importer does it.
+pub fn in_base_frame(samples: &[columns::RawSample], t_s: &[f64], sensor: &ImuSpec) -> Vec<ImuRow> {
+    let c_s_b = sensor.mounting.c_s_b();
+    samples
+        .iter()
+        .zip(t_s)
+        .map(|(s, t)| {
+            let g = c_s_b * Vector3::from(s.gyro_radps);
+            let a = c_s_b * Vector3::from(s.accel_mps2);
+            ImuRow {
+                t_s: *t,
+                gyro_radps: [g.x, g.y, g.z],
+                accel_mps2: [a.x, a.y, a.z],
+                temp_c: None,
+            }
+        })
+        .collect()
+}
+
 /// A regular sensor clock through the first sightings of its samples
 /// (`[time] regular = true`): a logger sees each sample some time after
 /// it was made, never before: polled faster than the sensor, or delivered
@@ -161,22 +182,8 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
     };
     rep.t0_gpst = t0;
     rep.imu_rate_found_hz = (t_gpst.len() - 1) as f64 / (t_end - t0);
-    let c_s_b = input.sensor.mounting.c_s_b();
-    let imu: Vec<ImuRow> = csv
-        .samples
-        .iter()
-        .zip(&t_gpst)
-        .map(|(s, t)| {
-            let g = c_s_b * Vector3::from(s.gyro_radps);
-            let a = c_s_b * Vector3::from(s.accel_mps2);
-            ImuRow {
-                t_s: t - t0,
-                gyro_radps: [g.x, g.y, g.z],
-                accel_mps2: [a.x, a.y, a.z],
-                temp_c: None,
-            }
-        })
-        .collect();
+    let t_s: Vec<f64> = t_gpst.iter().map(|t| t - t0).collect();
+    let imu = in_base_frame(&csv.samples, &t_s, &input.sensor);
     rep.imu_samples = imu.len();
     let mut gnss: Vec<GnssRow> = vec![];
     for e in &epochs {
