@@ -391,7 +391,11 @@ impl Chart {
             cc.draw_series(std::iter::once(Polygon::new(outline, c.mix(0.18).filled())))
                 .map_err(err)?;
         }
-        let width = if pts.len() > 3000 { 1 } else { 2 };
+        // A dense line is drawn 1 px wide: the bitmap backend joins wide
+        // segments with mitres, and a spiky series' sharp turns then shoot
+        // spikes out of the axes and over the title (the real 1500 s
+        // stepper run's residuals).
+        let width = if pts.len() > 500 { 1 } else { 2 };
         let style = c.stroke_width(width);
         if s.markers {
             let fill = if s.hollow {
@@ -649,6 +653,42 @@ mod tests {
         Figure::one(titled).png(&pt).unwrap();
         assert_ne!(std::fs::read(&pb).unwrap(), std::fs::read(&pt).unwrap());
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_spiky_dense_line_stays_inside_its_axes() {
+        // 1462 one-second means that flip sign each step (the real 1500 s
+        // stepper run's residual): drawn into a bitmap, no pixel of the
+        // series' colour lies in the title's band above the plot (mitred
+        // wide joins used to shoot spikes there).
+        let pts: Vec<(f64, f64)> = (0..1462)
+            .map(|i| {
+                (
+                    f64::from(i),
+                    if i % 2 == 0 { 1.0 } else { -1.0 } * f64::from(i % 7 + 1),
+                )
+            })
+            .collect();
+        let c = Chart {
+            title: "spiky".into(),
+            series: vec![Series::line("a", pts)],
+            ..Chart::default()
+        };
+        let (w, h) = (960u32, 480u32);
+        let mut buf = vec![0u8; (w * h * 3) as usize];
+        {
+            let area = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            c.draw(&area).unwrap();
+            area.present().unwrap();
+        }
+        let (r, g, b) = PALETTE[0];
+        let band = 30usize;
+        let hits = buf
+            .chunks_exact(3)
+            .take(band * w as usize)
+            .filter(|p| p[0] == r && p[1] == g && p[2] == b)
+            .count();
+        assert_eq!(hits, 0, "{hits} pixels of the line in the title's band");
     }
 
     #[test]
