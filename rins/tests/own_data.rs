@@ -355,6 +355,13 @@ fn a_real_table_runs_sensor_file_navigates_and_simulates_with_its_noise() {
         (1.0 / 3.0..3.0).contains(&g) && (1.0 / 3.0..3.0).contains(&a),
         "{g} {a}"
     );
+    // allan on this turning table refuses and points to diagnose.
+    let o = run(&["allan", &rec]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("turns throughout") && e.contains("rins diagnose"),
+        "{e}"
+    );
     // navigate with it: sigmas, none zero.
     let nav = ok(&[
         "navigate",
