@@ -239,6 +239,70 @@ pub struct EskfConfig {
     pub gnss_corr_tau_s: f64,
 }
 
+/// The values of an [`EskfConfig`], in [`EskfConfig::to_array`]'s order.
+pub const ESKF_CONFIG_LEN: usize = 20;
+
+impl EskfConfig {
+    /// Every value in field order (`warmup`'s four and
+    /// `gnss_corr_sigma_m`'s two in place): the one order the replay
+    /// header and the board's generated tuning write it in.
+    pub const fn to_array(&self) -> [f64; ESKF_CONFIG_LEN] {
+        let w = &self.warmup;
+        let [gh, gv] = self.gnss_corr_sigma_m;
+        [
+            self.gyro_arw,
+            self.accel_vrw,
+            self.gyro_bias_init_sigma,
+            self.gyro_bias_sigma,
+            self.gyro_bias_tau_s,
+            self.accel_bias_init_sigma,
+            self.accel_bias_sigma,
+            self.accel_bias_tau_s,
+            self.gate_sigma,
+            self.gyro_scale_sigma,
+            self.gyro_misalignment_sigma,
+            w.tau_s,
+            w.gyro_bias,
+            w.accel_bias,
+            w.gyro_scale,
+            self.accel_scale_sigma,
+            self.accel_misalignment_sigma,
+            gh,
+            gv,
+            self.gnss_corr_tau_s,
+        ]
+    }
+
+    /// [`Self::to_array`]'s inverse.
+    pub const fn from_array(v: [f64; ESKF_CONFIG_LEN]) -> Self {
+        let [gyro_arw, accel_vrw, gyro_bias_init_sigma, gyro_bias_sigma, gyro_bias_tau_s, accel_bias_init_sigma, accel_bias_sigma, accel_bias_tau_s, gate_sigma, gyro_scale_sigma, gyro_misalignment_sigma, tau_s, gyro_bias, accel_bias, gyro_scale, accel_scale_sigma, accel_misalignment_sigma, gh, gv, gnss_corr_tau_s] =
+            v;
+        Self {
+            gyro_arw,
+            accel_vrw,
+            gyro_bias_init_sigma,
+            gyro_bias_sigma,
+            gyro_bias_tau_s,
+            accel_bias_init_sigma,
+            accel_bias_sigma,
+            accel_bias_tau_s,
+            gate_sigma,
+            gyro_scale_sigma,
+            gyro_misalignment_sigma,
+            warmup: WarmupDrift {
+                tau_s,
+                gyro_bias,
+                accel_bias,
+                gyro_scale,
+            },
+            accel_scale_sigma,
+            accel_misalignment_sigma,
+            gnss_corr_sigma_m: [gh, gv],
+            gnss_corr_tau_s,
+        }
+    }
+}
+
 /// The initial uncertainty, 1-sigma per block.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct InitialSigma {
@@ -1055,4 +1119,27 @@ fn unit<T: Real>(i: usize) -> Vector3<T> {
 
 fn skew<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
     crate::attitude::skew(v)
+}
+
+#[cfg(test)]
+mod config_order {
+    use super::*;
+
+    #[test]
+    fn an_eskf_config_round_trips_through_its_array_in_field_order() {
+        let v: [f64; ESKF_CONFIG_LEN] = core::array::from_fn(|i| 1.0 + i as f64);
+        let c = EskfConfig::from_array(v);
+        assert_eq!(c.to_array(), v);
+        // Field order: the warm-up's four after the misalignment sigma,
+        // the GNSS error's two before its correlation time.
+        assert_eq!(
+            (
+                c.gyro_arw,
+                c.warmup.tau_s,
+                c.gnss_corr_sigma_m,
+                c.gnss_corr_tau_s
+            ),
+            (1.0, 12.0, [18.0, 19.0], 20.0)
+        );
+    }
 }

@@ -13,7 +13,7 @@ use crate::control::ControlConfig;
 use crate::navigation::NavConfig;
 use crate::tasks::Tuning;
 use core_nav::aided::{AidedConfig, ZuptNoise};
-use core_nav::eskf::{EskfConfig, InitialSigma, WarmupDrift};
+use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::table::Axis;
 
 include!(concat!(env!("OUT_DIR"), "/sensor_tuning.rs"));

@@ -82,32 +82,8 @@ impl Header {
             let e = &c.eskf;
             let i = &c.initial;
             let [ax, ay, az] = c.antenna_b_m;
-            let [gh, gv] = e.gnss_corr_sigma_m;
-            v = [
-                lon,
-                ax,
-                ay,
-                az,
-                e.gyro_arw,
-                e.accel_vrw,
-                e.gyro_bias_init_sigma,
-                e.gyro_bias_sigma,
-                e.gyro_bias_tau_s,
-                e.accel_bias_init_sigma,
-                e.accel_bias_sigma,
-                e.accel_bias_tau_s,
-                e.gate_sigma,
-                e.gyro_scale_sigma,
-                e.gyro_misalignment_sigma,
-                e.warmup.tau_s,
-                e.warmup.gyro_bias,
-                e.warmup.accel_bias,
-                e.warmup.gyro_scale,
-                e.accel_scale_sigma,
-                e.accel_misalignment_sigma,
-                gh,
-                gv,
-                e.gnss_corr_tau_s,
+            let head = [lon, ax, ay, az];
+            let tail = [
                 i.position_m,
                 i.velocity_mps,
                 i.level_rad,
@@ -116,6 +92,10 @@ impl Header {
                 c.zupt_noise.sigma_w_radps,
                 c.zupt_noise.sigma_table_rate_radps,
             ];
+            let all = head.into_iter().chain(e.to_array()).chain(tail);
+            for (slot, x) in v.iter_mut().zip(all) {
+                *slot = x;
+            }
         }
         v
     }
@@ -172,30 +152,12 @@ impl Header {
             Some(f64::from_le_bytes(a))
         };
         let aided = if word(r, 64) == 1 {
+            let mut eskf = [0.0; core_nav::eskf::ESKF_CONFIG_LEN];
+            for (k, x) in eskf.iter_mut().enumerate() {
+                *x = g(4 + k)?;
+            }
             let cfg = AidedConfig {
-                eskf: EskfConfig {
-                    gyro_arw: g(4)?,
-                    accel_vrw: g(5)?,
-                    gyro_bias_init_sigma: g(6)?,
-                    gyro_bias_sigma: g(7)?,
-                    gyro_bias_tau_s: g(8)?,
-                    accel_bias_init_sigma: g(9)?,
-                    accel_bias_sigma: g(10)?,
-                    accel_bias_tau_s: g(11)?,
-                    gate_sigma: g(12)?,
-                    gyro_scale_sigma: g(13)?,
-                    gyro_misalignment_sigma: g(14)?,
-                    warmup: core_nav::eskf::WarmupDrift {
-                        tau_s: g(15)?,
-                        gyro_bias: g(16)?,
-                        accel_bias: g(17)?,
-                        gyro_scale: g(18)?,
-                    },
-                    accel_scale_sigma: g(19)?,
-                    accel_misalignment_sigma: g(20)?,
-                    gnss_corr_sigma_m: [g(21)?, g(22)?],
-                    gnss_corr_tau_s: g(23)?,
-                },
+                eskf: EskfConfig::from_array(eskf),
                 initial: InitialSigma {
                     position_m: g(24)?,
                     velocity_mps: g(25)?,

@@ -132,24 +132,8 @@ fn the_books_real_walk_commands_run_as_written() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = tmp("walk");
     let (rec, nav) = (dir.join("walk"), dir.join("walk-nav"));
-    let data = root.join("tests/data/gnss_imu_walk_0827");
-    let d = |f: &str| data.join(f).to_string_lossy().to_string();
-    let o = rins(&[
-        "import",
-        "rtklib",
-        "--pos",
-        &d("gnss_1730_sf.pos"),
-        "--imu-file",
-        &d("imu_1730.csv"),
-        "--columns",
-        &d("columns.toml"),
-        "--sensor",
-        &d("sensor.toml"),
-        "--geoid-m",
-        "-21.39",
-        "--out",
-        &rec.to_string_lossy(),
-    ]);
+    let args = rins_tests::data::walk_import_args(&rec);
+    let o = rins(&args.iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let o = rins(&[
         "navigate",

@@ -38,25 +38,9 @@ fn s(p: &Path) -> String {
 
 /// The bundled real walk imported into `dir/rec`.
 fn walk(dir: &Path) -> PathBuf {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/data/gnss_imu_walk_0827");
-    let d = |f: &str| s(&data.join(f));
     let rec = dir.join("rec");
-    ok(&rins(&[
-        "import",
-        "rtklib",
-        "--pos",
-        &d("gnss_1730_sf.pos"),
-        "--imu-file",
-        &d("imu_1730.csv"),
-        "--columns",
-        &d("columns.toml"),
-        "--sensor",
-        &d("sensor.toml"),
-        "--geoid-m",
-        "-21.39",
-        "--out",
-        &s(&rec),
-    ]));
+    let args = rins_tests::data::walk_import_args(&rec);
+    ok(&rins(&args.iter().map(String::as_str).collect::<Vec<_>>()));
     rec
 }
 

@@ -94,14 +94,7 @@ fn calibrate_navigate_allan_on_a_simulated_run() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&aj).unwrap()).unwrap();
     assert_eq!(v["format"], "rins-allan/1");
-    for ch in [
-        "gyro_x_radps",
-        "gyro_y_radps",
-        "gyro_z_radps",
-        "accel_x_mps2",
-        "accel_y_mps2",
-        "accel_z_mps2",
-    ] {
+    for ch in diagnose::noise_terms::CHANNELS {
         let c = &v["channels"][ch];
         let n = c["tau_s"].as_array().unwrap().len();
         assert!(n > 5, "{ch}");

@@ -132,23 +132,16 @@ fn allan(dir: &Path, rec: &str, extra: &[&str]) -> (Vec<(f64, Option<f64>)>, Str
     a.extend_from_slice(extra);
     let text = ok(&a);
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&j).unwrap()).unwrap();
-    let chs = [
-        "gyro_x_radps",
-        "gyro_y_radps",
-        "gyro_z_radps",
-        "accel_x_mps2",
-        "accel_y_mps2",
-        "accel_z_mps2",
-    ]
-    .iter()
-    .map(|c| {
-        let c = &v["channels"][c];
-        (
-            c["white_noise_density"].as_f64().unwrap_or(f64::NAN),
-            c["bias_instability"].as_f64(),
-        )
-    })
-    .collect();
+    let chs = diagnose::noise_terms::CHANNELS
+        .iter()
+        .map(|c| {
+            let c = &v["channels"][c];
+            (
+                c["white_noise_density"].as_f64().unwrap_or(f64::NAN),
+                c["bias_instability"].as_f64(),
+            )
+        })
+        .collect();
     (chs, text)
 }
 

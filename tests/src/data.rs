@@ -132,3 +132,32 @@ pub fn external(test: &str, dir: &str, rel: &str) -> Option<PathBuf> {
     eprintln!("SKIPPED {msg}");
     None
 }
+
+/// `rins import rtklib`'s arguments for the bundled real walk into `out`:
+/// the book's command (`docs/src/aided.md`), one home for the tests that
+/// run it.
+pub fn walk_import_args(out: &std::path::Path) -> Vec<String> {
+    let d = |f: &str| {
+        bundled("gnss_imu_walk_0827")
+            .join(f)
+            .to_string_lossy()
+            .into_owned()
+    };
+    [
+        "import".to_string(),
+        "rtklib".into(),
+        "--pos".into(),
+        d("gnss_1730_sf.pos"),
+        "--imu-file".into(),
+        d("imu_1730.csv"),
+        "--columns".into(),
+        d("columns.toml"),
+        "--sensor".into(),
+        d("sensor.toml"),
+        "--geoid-m".into(),
+        "-21.39".into(),
+        "--out".into(),
+        out.to_string_lossy().into_owned(),
+    ]
+    .to_vec()
+}
