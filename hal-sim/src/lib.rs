@@ -6,9 +6,10 @@
 //! - [`world`]: site (core-nav's), base, table geometry, motor, the lab
 //!   console's servo (core-nav's controller), encoder.
 //! - [`imu`]: the sensor error model; [`sensor`]: sensor files
-//!   (`rins-sensor/1`), the shipped datasheet profiles among them.
-//! - [`catalogue`]: the diagnose-v1 effect ids, the one list the
-//!   simulator's knobs, diagnose and the study are keyed by.
+//!   (`rins-sensor/2`), the shipped datasheet profiles among them.
+//! - [`catalogue`]: the diagnose-v1 effect ids and their physical bounds
+//!   (the `sensor` crate's, re-exported), the one list the simulator's
+//!   knobs, diagnose and the study are keyed by.
 //! - [`sim`]: `simulate` and its `--effect` knobs ([`sim::EFFECTS`]);
 //!   [`motion`]: the table's motion under its servo, made once and shared
 //!   by every run of one table and scheme.
@@ -23,7 +24,7 @@
 //!   (reader, writer, encoder track) is the `recording` crate.
 
 pub mod bench;
-pub mod catalogue;
+pub use ::sensor::catalogue;
 pub mod drive;
 pub mod drivers;
 pub mod dual;

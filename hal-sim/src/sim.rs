@@ -863,3 +863,19 @@ fn veh_at(h: &VecDeque<VehicleState>, t: f64) -> Option<VehicleState> {
 fn wrap(x: f64) -> f64 {
     (x + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI
 }
+
+#[cfg(test)]
+mod knob_tests {
+    use super::EFFECTS;
+    use crate::catalogue::EffectId;
+
+    #[test]
+    fn every_catalogue_id_has_a_simulator_knob() {
+        for e in EffectId::ALL {
+            assert!(
+                EFFECTS.iter().any(|k| k.name == e.as_str()),
+                "{e}: no --effect knob"
+            );
+        }
+    }
+}

@@ -7,9 +7,12 @@
 //!   its tuning from its sensor file through it);
 //! - [`file`] (`std`): the sensor file format (`rins-sensor/2`: a term
 //!   measured, from its base, or unknown), the shipped profiles
-//!   (`sensors/*.toml`), [`file::ImuSpec`].
+//!   (`sensors/*.toml`), [`file::ImuSpec`];
+//! - [`catalogue`]: the diagnose-v1 effect ids and each one's physical
+//!   bound, which the simulator's knobs and diagnose share.
 #![cfg_attr(not(feature = "std"), no_std)]
 
+pub mod catalogue;
 pub mod filter;
 pub mod spec;
 
