@@ -49,6 +49,14 @@ pub fn not_measured(f: &NoiseFit) -> Vec<&'static str> {
     if !f.floor_seen {
         v.push("bias_instability");
     }
+    // Terms the fit's chosen model left out (the curve did not need
+    // them): not zero, unresolved.
+    if f.rrw <= 0.0 {
+        v.push("rate_random_walk");
+    }
+    if f.gm_sigma <= 0.0 {
+        v.push("gauss_markov");
+    }
     v
 }
 
@@ -69,9 +77,9 @@ pub fn to_json(chs: &[ChannelAllan]) -> Value {
                 "bias_instability": c.fit.floor_seen.then_some(c.fit.bias_instability),
                 "bias_instability_upper_bound": (!c.fit.floor_seen).then_some(c.fit.bias_instability),
                 "not_measured": not_measured(&c.fit),
-                "rate_random_walk": c.fit.rrw,
-                "gauss_markov_sigma": c.fit.gm_sigma,
-                "gauss_markov_tau_s": c.fit.gm_tau_s,
+                "rate_random_walk": (c.fit.rrw > 0.0).then_some(c.fit.rrw),
+                "gauss_markov_sigma": (c.fit.gm_sigma > 0.0).then_some(c.fit.gm_sigma),
+                "gauss_markov_tau_s": (c.fit.gm_sigma > 0.0).then_some(c.fit.gm_tau_s),
             }),
         );
     }

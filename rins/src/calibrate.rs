@@ -338,9 +338,35 @@ fn vec3_json(v: &Vector3<f64>) -> Value {
     json!([v.x, v.y, v.z])
 }
 
-/// The calibration file (`rins-calibration/1`).
+/// Whether the method solved for the rate-squared term and the
+/// asymmetry: an unsolved term is held at exactly 0 with a predicted
+/// sigma of exactly 0, which a least-squares solution from noisy data
+/// never gives (`core_nav::calib::solve`).
+fn solved(g: &GyroCalibration) -> (bool, bool) {
+    let any = |v: &Vector3<f64>, s: &Vector3<f64>| v.iter().chain(s.iter()).any(|x| *x != 0.0);
+    (any(&g.q, &g.sigma_q), any(&g.a, &g.sigma_a))
+}
+
+/// A predicted sigma as JSON: `null` for a term not solved for.
+fn sigma_json(v: &Vector3<f64>, solved: bool) -> Value {
+    if solved {
+        vec3_json(v)
+    } else {
+        Value::Null
+    }
+}
+
+/// The calibration file (`rins-calibration/1`): a term the method did
+/// not solve for is applied as 0 (no correction), its predicted sigma
+/// `null`, and it is listed in `not_estimated`.
 pub fn to_json(r: &Calibration) -> Value {
     let g = &r.gyro;
+    let (q_solved, a_solved) = solved(g);
+    let not_estimated: Vec<&str> = [(q_solved, "q_per_radps"), (a_solved, "asymmetry")]
+        .into_iter()
+        .filter(|(s, _)| !s)
+        .map(|(_, n)| n)
+        .collect();
     json!({
         "format": "rins-calibration/1",
         "method": r.method,
@@ -354,9 +380,10 @@ pub fn to_json(r: &Calibration) -> Value {
         "predicted_sigma": {
             "bias_radps": vec3_json(&g.sigma_bias),
             "m_k": vec3_json(&g.sigma_m_k),
-            "q_per_radps": vec3_json(&g.sigma_q),
-            "asymmetry": vec3_json(&g.sigma_a),
+            "q_per_radps": sigma_json(&g.sigma_q, q_solved),
+            "asymmetry": sigma_json(&g.sigma_a, a_solved),
         },
+        "not_estimated": not_estimated,
         "phases": r.phases.iter().map(|(s, p)| json!({
             "t_start_s": s.t0_s, "t_end_s": s.t1_s, "rate_dps": p.rate_radps.to_degrees(),
             "duration_s": p.duration_s, "mean_gyro_radps": vec3_json(&p.mean_w), "arw_rad_per_sqrt_s": vec3_json(&p.arw),
@@ -396,12 +423,17 @@ pub fn from_json(v: &Value) -> Result<GyroCalibration> {
         .and_then(parse_axis)
         .ok_or_else(|| anyhow!("missing axis"))?;
     // Predicted errors are optional (the board's calibration frames carry
-    // none): absent, they are 0.
+    // none; a term not solved for has null): absent, held as 0, which the
+    // report prints as unknown.
     let sigma = |path: &[&str]| -> Result<Vector3<f64>> {
-        if v.get("predicted_sigma").is_some() {
-            vec(path)
-        } else {
+        let missing = path
+            .iter()
+            .try_fold(v, |x, p| x.get(p))
+            .is_none_or(Value::is_null);
+        if missing {
             Ok(Vector3::zeros())
+        } else {
+            vec(path)
         }
     };
     Ok(GyroCalibration {
@@ -436,16 +468,35 @@ pub fn report(r: &Calibration) -> String {
             p.arw.norm().to_degrees() * 60.0 / 3f64.sqrt()
         );
     }
+    let (q_solved, a_solved) = solved(g);
     s += "  axis        bias [deg/h]        M k [ppm]          q [ppm/(deg/s)]\n";
     for (i, n) in ["x", "y", "z"].iter().enumerate() {
+        let q = if q_solved {
+            format!(
+                "{:9.3} +- {:7.3}",
+                g.q[i] * 1e6 * 1f64.to_radians(),
+                g.sigma_q[i] * 1e6 * 1f64.to_radians()
+            )
+        } else {
+            "not estimated".into()
+        };
         s += &format!(
-            "  {n}    {:9.2} +- {:6.2}   {:9.1} +- {:7.1}   {:9.3} +- {:7.3}\n",
+            "  {n}    {:9.2} +- {:6.2}   {:9.1} +- {:7.1}   {q}\n",
             dph(g.bias[i]),
             dph(g.sigma_bias[i]),
             g.m_k[i] * 1e6,
             g.sigma_m_k[i] * 1e6,
-            g.q[i] * 1e6 / 1f64.to_radians().recip(),
-            g.sigma_q[i] * 1e6 / 1f64.to_radians().recip(),
+        );
+    }
+    if !q_solved || !a_solved {
+        s += &format!(
+            "  not estimated by this method (one rate, or one direction): {}; applied as 0 (no correction); --method multirate on a run at 3+ rates both ways solves them\n",
+            [(q_solved, "q"), (a_solved, "the asymmetry")]
+                .iter()
+                .filter(|(s, _)| !s)
+                .map(|(_, n)| *n)
+                .collect::<Vec<_>>()
+                .join(" and ")
         );
     }
     s

@@ -43,13 +43,21 @@ pub fn config_commands(rec: &Recording, rate_radps: f64) -> Vec<Command> {
 pub trait Port: Read + Write + Send {}
 impl<T: Read + Write + Send> Port for T {}
 
+/// The board's baud rate when none is given, bit/s.
+pub const BOARD_BAUD: u32 = 921_600;
+
 /// Opens `spec`: `unix:PATH` (a socket: the QEMU build's USART3), or a
-/// serial device at `baud`.
+/// serial device at `baud` (default `default_baud`). `--flag` names the
+/// option that gave `baud`.
 ///
 /// # Errors
-/// The port cannot be opened.
-pub fn open(spec: &str, baud: u32) -> Result<Box<dyn Port>> {
+/// The port cannot be opened; a baud rate given for a socket (it has
+/// none: refused, not ignored).
+pub fn open(spec: &str, baud: Option<u32>, default_baud: u32, flag: &str) -> Result<Box<dyn Port>> {
     if let Some(path) = spec.strip_prefix("unix:") {
+        if let Some(b) = baud {
+            bail!("{flag} {b} with {spec}: a socket has no baud rate");
+        }
         #[cfg(unix)]
         {
             // QEMU creates the socket as it starts: wait for it.
@@ -71,7 +79,7 @@ pub fn open(spec: &str, baud: u32) -> Result<Box<dyn Port>> {
         #[cfg(not(unix))]
         bail!("unix sockets need a unix host: {path}");
     }
-    let p = serialport::new(spec, baud)
+    let p = serialport::new(spec, baud.unwrap_or(default_baud))
         .timeout(Duration::from_millis(200))
         .open()
         .with_context(|| format!("opening {spec}"))?;

@@ -38,6 +38,7 @@ pub const EXTERNAL: [Dataset; 3] = [
             "allan_reference::adis16405_bench_noise_terms",
             "diagnose::adis16405_bench_hour_shows_bias_instability",
             "diagnose_real_noise::real_noise_nulls_name_nothing",
+            "cli_walk::study",
             "diagnose_real_noise::a_long_step_profile_on_real_drift_is_not_a_warm_up",
             "diagnose_real_noise::a_warm_up_on_real_drift_is_still_found",
             "diagnose_real_noise::cross_axis_g_sensitivity_on_a_horizontal_axis_is_g_sensitivity",

@@ -38,17 +38,12 @@ pub struct TwinOptions {
     pub stamp_at_arrival: bool,
 }
 
-/// Runs `bytes` (a replay; its trailer ignored).
+/// A replay's header and its records.
 ///
 /// # Panics
 /// A malformed replay (the twin is a test tool).
-pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
+fn events(bytes: &[u8]) -> (Header, Vec<Event>) {
     let h = Header::decode(&bytes[..HEADER]).expect("a replay header");
-    let mut tuning = firmware::replay::tuning(&h, firmware::tuning::board());
-    if let Some(hz) = opt.horizon_us {
-        tuning.nav.fix_horizon_us = hz;
-    }
-    let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
     let mut events = vec![];
     let mut at = HEADER;
     for _ in 0..h.records {
@@ -56,6 +51,80 @@ pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
         events.push(decode(&bytes[at..at + n]).expect("a record"));
         at += n;
     }
+    (h, events)
+}
+
+/// The board's program on the host behind a unix socket at `path`, as the
+/// QEMU build's USART3 is to `rins command` and `rins record` (`--port
+/// unix:PATH`): booted blank (the factory configuration: the client
+/// configures it), its sensors a replay's (from `rins qemu-replay`; its
+/// commands and fixes left to the client), one data-ready edge a
+/// millisecond of wall time, then idle when the replay ends. Serves one
+/// connection until the peer closes it; the thread returns the board.
+///
+/// # Panics
+/// The socket cannot be bound; a malformed replay (a test's fixture).
+#[cfg(unix)]
+pub fn serve_unix(path: &std::path::Path, replay: Vec<u8>) -> std::thread::JoinHandle<HostBoard> {
+    use std::io::{Read, Write};
+    use std::time::{Duration, Instant};
+    let _ = std::fs::remove_file(path);
+    let listener = std::os::unix::net::UnixListener::bind(path).expect("binding the socket");
+    std::thread::spawn(move || {
+        let (h, events) = events(&replay);
+        let tuning = firmware::replay::tuning(&h, firmware::tuning::board());
+        let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
+        let Ok((mut sock, _)) = listener.accept() else {
+            return b;
+        };
+        let _ = sock.set_read_timeout(Some(Duration::from_millis(2)));
+        let mut it = events
+            .into_iter()
+            .filter(|e| matches!(e, Event::Imu { .. } | Event::Encoder { .. }));
+        let (mut s, mut i, mut more) = (Sensors::default(), 0u64, true);
+        let (start, mut buf) = (Instant::now(), [0u8; 512]);
+        loop {
+            match sock.read(&mut buf) {
+                Ok(0) => return b,
+                Ok(n) => b.receive(buf.get(..n).unwrap_or(&[])),
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                    ) => {}
+                Err(_) => return b,
+            }
+            // Catch up with the wall clock, an edge a millisecond.
+            while (i as u128) < start.elapsed().as_millis() {
+                if more {
+                    more = s.advance(i, &mut || it.next(), &mut |_| {});
+                    let (mut enc, mut motor) = (s, s);
+                    let mcu = b.mcu_us + 1_000;
+                    b.edge(mcu, &mut s, &mut enc, &mut motor);
+                } else {
+                    b.idle(1_000);
+                }
+                i += 1;
+            }
+            let out = std::mem::take(&mut b.sent);
+            if sock.write_all(&out).is_err() {
+                return b;
+            }
+        }
+    })
+}
+
+/// Runs `bytes` (a replay; its trailer ignored).
+///
+/// # Panics
+/// A malformed replay (the twin is a test tool).
+pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
+    let (h, events) = events(bytes);
+    let mut tuning = firmware::replay::tuning(&h, firmware::tuning::board());
+    if let Some(hz) = opt.horizon_us {
+        tuning.nav.fix_horizon_us = hz;
+    }
+    let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
     for e in &events {
         if let Event::Command { len, payload } = e {
             let (_, c) = Command::decode(&payload[..usize::from(*len)]).expect("a command");

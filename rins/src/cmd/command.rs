@@ -9,9 +9,9 @@ pub struct Args {
     /// The board's port (a serial device, or `unix:PATH` for the QEMU build).
     #[arg(long)]
     pub port: String,
-    /// Baud rate.
-    #[arg(long, default_value_t = 921_600)]
-    pub baud: u32,
+    /// Baud rate of a serial --port (default 921600; a socket has none).
+    #[arg(long)]
+    pub baud: Option<u32>,
     /// Print the answer as JSON.
     #[arg(long)]
     pub json: bool,
@@ -123,7 +123,12 @@ pub fn run(a: &Args) -> Result<()> {
     if let Err(s) = c.check() {
         anyhow::bail!("the board would refuse {c:?}: {s:?}");
     }
-    let mut s = rins::link::Session::new(rins::link::open(&a.port, a.baud)?);
+    let mut s = rins::link::Session::new(rins::link::open(
+        &a.port,
+        a.baud,
+        rins::link::BOARD_BAUD,
+        "--baud",
+    )?);
     let status = s.command(&c, &mut |_| {})?;
     if a.json {
         println!(

@@ -42,12 +42,20 @@ pub struct Args {
     #[arg(long, value_name = "M.toml")]
     pub sim_model: Option<PathBuf>,
     /// First seed of the twins drawn for `--sim-model` (the seed, as in
-    /// every command).
-    #[arg(long = "seed", alias = "twin-seed", default_value_t = 1)]
+    /// every command; only with `--sim-model`: the diagnosis itself draws
+    /// nothing).
+    #[arg(
+        long = "seed",
+        alias = "twin-seed",
+        default_value_t = 1,
+        requires = "sim_model"
+    )]
     pub seed: u64,
-    /// Write a sensor file (rins-sensor/1) with what the findings measured
-    /// of the sensor (g-sensitivity, scale nonlinearity and asymmetry,
-    /// temperature coefficients, latency) on top of --sensor.
+    /// Write a sensor file (rins-sensor/2) with what the run measured of
+    /// the sensor (its noise, full scale and resolution where the data show
+    /// them; the findings: g-sensitivity, scale nonlinearity and asymmetry,
+    /// temperature coefficients, latency) on top of --sensor; the rest
+    /// from --sensor or unknown.
     #[arg(long)]
     pub sensor_out: Option<PathBuf>,
     /// The sensor the file starts from (a shipped name or a file; default:

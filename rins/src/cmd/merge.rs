@@ -35,6 +35,9 @@ fn read<T: DeserializeOwned>(p: &Path) -> Result<T> {
 pub fn run(a: &Args) -> Result<()> {
     let first: serde_json::Value = read(&a.shards[0])?;
     let format = first["format"].as_str().unwrap_or("").to_string();
+    if a.plots.is_some() && format != rins::reproduce::FORMAT {
+        bail!("--plots: only the paper's experiment (rins-reproduce/1 shards) has plots to merge; `rins outages --plots` draws its drive without --shard");
+    }
     match format.as_str() {
         rins::outages::FORMAT => {
             let parts = a.shards.iter().map(|p| read(p)).collect::<Result<Vec<_>>>()?;

@@ -60,6 +60,18 @@ pub enum SchemeArg {
     Still,
 }
 
+impl SchemeArg {
+    /// The name `--scheme` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Continuous => "continuous",
+            Self::Reciprocating => "reciprocating",
+            Self::Indexed => "indexed",
+            Self::Still => "still",
+        }
+    }
+}
+
 /// Where the run is and how the base sits (`rins simulate`, `rins record`).
 #[derive(clap::Args, Clone, Copy, Debug)]
 pub struct SiteArgs {
@@ -156,11 +168,22 @@ pub fn write_file(p: &Path, text: &str) -> Result<()> {
     std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))
 }
 
-/// `--shard` refused without `--json`: a shard's runs are what `rins
-/// merge` reads.
-pub fn shard_needs_json(shard: rins::shard::Shard, json: Option<&Path>) -> Result<()> {
-    if shard.n > 1 && json.is_none() {
+/// `--shard` refused without `--json` (a shard's runs are what `rins
+/// merge` reads) and with the outputs only a whole run makes (`tables`:
+/// `--markdown`, `--plots`, each given or not).
+pub fn shard_needs_json(
+    shard: rins::shard::Shard,
+    json: Option<&Path>,
+    tables: &[(&str, bool)],
+) -> Result<()> {
+    if shard.n <= 1 {
+        return Ok(());
+    }
+    if json.is_none() {
         anyhow::bail!("--shard needs --json: the shard's runs are what `rins merge` reads");
+    }
+    if let Some((flag, _)) = tables.iter().find(|(_, given)| *given) {
+        anyhow::bail!("{flag} with --shard: a shard makes no table or plot; `rins merge` of all the shards does (give it {flag})");
     }
     Ok(())
 }

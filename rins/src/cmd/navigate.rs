@@ -59,7 +59,7 @@ pub struct Args {
     pub no_zupt: bool,
     /// The sensor profile the filter's noise model comes from (default:
     /// the one named by the recording's `[imu] model`).
-    /// A shipped profile's name or a sensor file (`rins-sensor/1`): its
+    /// A shipped profile's name or a sensor file (`rins-sensor/2`): its
     /// noise, and with --gnss its antenna lever arm (over meta.toml's).
     /// Its mounting is not applied again: `rins import` wrote the samples
     /// in the base frame. Without --gnss: the alignment's sigmas.
@@ -317,6 +317,38 @@ fn antenna_from_sensor(rec: &mut recording::Recording, profile: &hal_sim::imu::I
     }
 }
 
+/// `--gnss-floor-m`: the floors by solution type; refused when no fix
+/// states its type (gnss.csv without a quality column: every fix keeps
+/// its own sigma, the floors would change nothing).
+fn receiver_floor(
+    given: Option<&[f64]>,
+    rec: &recording::Recording,
+) -> Result<rins::aided::ReceiverFloor> {
+    let Some(v) = given else {
+        return Ok(rins::aided::ReceiverFloor::default());
+    };
+    let &[rtk_fixed_m, rtk_float_m, dgnss_m, single_m] = v else {
+        bail!(
+            "--gnss-floor-m takes four values (RTK fixed, RTK float, DGNSS, single point, m, comma-separated), got {}",
+            v.len()
+        );
+    };
+    let typed = rec
+        .moving
+        .as_ref()
+        .and_then(|m| m.gnss.as_ref())
+        .is_some_and(|g| g.iter().any(|f| f.quality.is_some()));
+    if !typed {
+        bail!("--gnss-floor-m: no fix in gnss.csv states its solution type (no quality column), so no floor applies: each fix keeps its own sigma_h_m");
+    }
+    Ok(rins::aided::ReceiverFloor {
+        rtk_fixed_m,
+        rtk_float_m,
+        dgnss_m,
+        single_m,
+    })
+}
+
 /// `rins navigate --gnss`.
 fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let mut rec = rins::aided::span::cut(rec, a.start_s, a.end_s)?;
@@ -341,19 +373,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             .iter()
             .map(|o| hal_sim::drive::parse_outage(o).map_err(|e| anyhow::anyhow!(e)))
             .collect::<Result<_>>()?,
-        floor: match a.gnss_floor_m.as_deref() {
-            None => rins::aided::ReceiverFloor::default(),
-            Some(&[rtk_fixed_m, rtk_float_m, dgnss_m, single_m]) => rins::aided::ReceiverFloor {
-                rtk_fixed_m,
-                rtk_float_m,
-                dgnss_m,
-                single_m,
-            },
-            Some(v) => bail!(
-                "--gnss-floor-m takes four values (RTK fixed, RTK float, DGNSS, single point, m, comma-separated), got {}",
-                v.len()
-            ),
-        },
+        floor: receiver_floor(a.gnss_floor_m.as_deref(), rec)?,
         gnss_velocity: !a.gnss_position_only,
         time_offset_s: a.time_offset_s,
     };

@@ -49,7 +49,11 @@ pub fn run(a: &Args) -> Result<()> {
         .map(|n| Ok(hal_sim::sensor::resolve(n.trim())?))
         .collect::<Result<Vec<_>>>()?;
     let shard = a.shard.unwrap_or(Shard::ALL);
-    super::shard_needs_json(shard, a.json.as_deref())?;
+    super::shard_needs_json(
+        shard,
+        a.json.as_deref(),
+        &[("--markdown", a.markdown.is_some())],
+    )?;
     let pb = progress_bar("outages");
     let s = rins::outages::run(kind, &imus, a.seed, a.drives, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)

@@ -17,11 +17,11 @@ pub struct Args {
         required_unless_present = "from_file"
     )]
     pub port: Option<String>,
-    /// Baud rate.
-    #[arg(long, default_value_t = 921_600)]
-    pub baud: u32,
+    /// Baud rate of a serial --port (default 921600; a socket has none).
+    #[arg(long, conflicts_with = "from_file")]
+    pub baud: Option<u32>,
     /// Record this long from the port, s.
-    #[arg(long, default_value_t = 600.0)]
+    #[arg(long, default_value_t = 600.0, conflicts_with = "from_file")]
     pub duration_s: f64,
     /// Decode a captured byte stream instead of a port.
     #[arg(long)]
@@ -37,7 +37,7 @@ pub struct Args {
     pub json: Option<PathBuf>,
     /// Configure the board first for this recording's site, base, scheme
     /// and aided mode (the commands `rins command` sends; each acknowledged).
-    #[arg(long, requires = "port")]
+    #[arg(long, conflicts_with = "from_file")]
     pub like: Option<PathBuf>,
     /// Relay GNSS fixes to the board, each with its time of validity on
     /// the board's clock. FILE: a recording-v1 `gnss.csv` (with `--like`,
@@ -46,16 +46,17 @@ pub struct Args {
     /// other value: a serial device, or `unix:PATH`): a live u-blox
     /// receiver's UBX-NAV-PVT, its UTC epoch put on the board's clock
     /// through the host's UTC clock (keep it synchronised: NTP).
-    #[arg(long, requires = "port", value_name = "FILE|PORT")]
+    #[arg(long, conflicts_with = "from_file", value_name = "FILE|PORT")]
     pub gnss: Option<String>,
-    /// The live receiver's baud rate (`--gnss PORT`; a USB receiver
-    /// ignores it).
-    #[arg(long, default_value_t = 38_400)]
-    pub gnss_baud: u32,
-    /// Send each fix this long after its time of validity (a receiver's
-    /// latency), ms.
-    #[arg(long, default_value_t = 150.0)]
-    pub latency_ms: f64,
+    /// The live receiver's baud rate (`--gnss PORT` on a serial device,
+    /// default 38400; a USB receiver ignores it).
+    #[arg(long, requires = "gnss", conflicts_with = "from_file")]
+    pub gnss_baud: Option<u32>,
+    /// Send each fix of a `--gnss FILE` this long after its time of
+    /// validity (a receiver's latency), ms (default 150; a live receiver
+    /// has its own).
+    #[arg(long, requires = "gnss", conflicts_with = "from_file")]
+    pub latency_ms: Option<f64>,
 }
 
 /// Runs `rins record`.
@@ -117,7 +118,12 @@ pub fn run(a: &Args) -> Result<()> {
 /// Records from a port: configures the board (`--like`), relays fixes
 /// (`--gnss`), until `--duration-s` or the port closes.
 fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
-    let mut s = rins::link::Session::new(rins::link::open(port, a.baud)?);
+    let mut s = rins::link::Session::new(rins::link::open(
+        port,
+        a.baud,
+        rins::link::BOARD_BAUD,
+        "--baud",
+    )?);
     let like = a
         .like
         .as_ref()
@@ -125,6 +131,9 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
         .transpose()?;
     let mut relay = match &a.gnss {
         Some(g) if std::path::Path::new(g).is_file() => {
+            if let Some(b) = a.gnss_baud {
+                bail!("--gnss-baud {b} with --gnss {g}: a file has no baud rate");
+            }
             let p = std::path::Path::new(g);
             let text =
                 std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
@@ -136,13 +145,20 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
             Relay::File(rins::link::Relay::new(
                 rows,
                 t0,
-                (a.latency_ms * 1e3) as u64,
+                (a.latency_ms.unwrap_or(150.0) * 1e3) as u64,
             ))
         }
-        Some(port) => Relay::Live(rins::link::LiveRelay::spawn(rins::link::open(
-            port,
-            a.gnss_baud,
-        )?)),
+        Some(port) => {
+            if let Some(l) = a.latency_ms {
+                bail!("--latency-ms {l} with the live receiver {port}: its fixes are relayed as they arrive (--latency-ms delays a --gnss FILE's)");
+            }
+            Relay::Live(rins::link::LiveRelay::spawn(rins::link::open(
+                port,
+                a.gnss_baud,
+                38_400,
+                "--gnss-baud",
+            )?))
+        }
         None => Relay::None,
     };
     let mut frames: Vec<protocol::Telemetry> = vec![];

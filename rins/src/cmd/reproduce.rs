@@ -49,7 +49,14 @@ pub fn run(a: &Args) -> Result<()> {
     }
     let spec = ImuSpec::by_name(&a.sensor).ok_or_else(|| anyhow!("unknown imu"))?;
     let shard = a.shard.unwrap_or(Shard::ALL);
-    super::shard_needs_json(shard, a.json.as_deref())?;
+    super::shard_needs_json(
+        shard,
+        a.json.as_deref(),
+        &[
+            ("--markdown", a.markdown.is_some()),
+            ("--plots", a.plots.is_some()),
+        ],
+    )?;
     let pb = progress_bar("reproduce");
     let rows = repro::reproduce(&spec, a.runs, a.seed, &repro::RATES_DPS, shard, &|f| {
         pb.set_position((f * 1000.0) as u64)

@@ -19,7 +19,7 @@ pub struct Args {
     #[arg(long)]
     pub ideal: bool,
     /// The sensor: a shipped profile's name (ideal, mtig, nav440,
-    /// adis16405, icm42688, icm42605) or a sensor file (`rins-sensor/1`).
+    /// adis16405, icm42688, icm42605) or a sensor file (`rins-sensor/2`).
     /// Not with --ideal (which is a sensor of its own).
     #[arg(
         long = "sensor",
@@ -34,9 +34,10 @@ pub struct Args {
     /// Table axis (the sensor axis it nominally coincides with).
     #[arg(long, value_enum, default_value = "z")]
     pub axis: AxisArg,
-    /// Table rate, deg/s (the cruise rate of moves for reciprocating / indexed).
-    #[arg(long, default_value_t = 30.0)]
-    pub rate_dps: f64,
+    /// Table rate, deg/s (the cruise rate of moves for reciprocating /
+    /// indexed; default 30; a still table has none).
+    #[arg(long)]
+    pub rate_dps: Option<f64>,
     /// Run length, s.
     #[arg(long, default_value_t = 120.0)]
     pub duration_s: f64,
@@ -49,23 +50,23 @@ pub struct Args {
     /// Gravity at the site, m/s^2 (default: WGS-84 normal gravity).
     #[arg(long)]
     pub gravity_mps2: Option<f64>,
-    /// Whole turns each way (reciprocating).
-    #[arg(long, default_value_t = 1)]
-    pub turns: u32,
-    /// Positions (indexed): 2 or 4.
-    #[arg(long, default_value_t = 4)]
-    pub positions: u8,
-    /// Dwell at each position (indexed), s.
-    #[arg(long, default_value_t = 10.0)]
-    pub dwell_s: f64,
+    /// Whole turns each way (reciprocating only; default 1).
+    #[arg(long)]
+    pub turns: Option<u32>,
+    /// Positions (indexed only): 2 or 4 (default 4).
+    #[arg(long)]
+    pub positions: Option<u8>,
+    /// Dwell at each position (indexed only), s (default 10).
+    #[arg(long)]
+    pub dwell_s: Option<f64>,
     /// A physical effect, NAME=VALUE (repeatable); `--list-effects` shows them.
     #[arg(long = "effect", value_name = "NAME=VALUE")]
     pub effects: Vec<String>,
     /// Seed: the same seed gives bit-identical output.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// List the effects and exit.
-    #[arg(long)]
+    /// List the effects and exit (alone: it makes no recording).
+    #[arg(long, exclusive = true)]
     pub list_effects: bool,
     /// Put the table on a vehicle: a seeded `city` or `highway` drive
     /// (starts, stops, turns, hills) with a 1 Hz GNSS receiver; the
@@ -115,6 +116,49 @@ fn sensor_to_simulate(name: &str) -> Result<ImuSpec> {
 }
 
 impl Args {
+    /// The rotation scheme; a scheme's option given to another scheme is
+    /// refused, not ignored.
+    fn rotation(&self) -> Result<Scheme> {
+        let rate = self.rate_dps.unwrap_or(30.0).to_radians();
+        let (reciprocating, indexed) = (
+            matches!(self.scheme, SchemeArg::Reciprocating),
+            matches!(self.scheme, SchemeArg::Indexed),
+        );
+        if self.rate_dps.is_some() && matches!(self.scheme, SchemeArg::Still) {
+            bail!("--rate-dps does not apply to --scheme still: the table does not turn");
+        }
+        for (given, name, applies) in [
+            (self.turns.is_some(), "--turns", reciprocating),
+            (self.positions.is_some(), "--positions", indexed),
+            (self.dwell_s.is_some(), "--dwell-s", indexed),
+        ] {
+            if given && !applies {
+                bail!(
+                    "{name} does not apply to --scheme {}: it is for {}",
+                    self.scheme.name(),
+                    if name == "--turns" {
+                        "reciprocating"
+                    } else {
+                        "indexed"
+                    }
+                );
+            }
+        }
+        Ok(match self.scheme {
+            SchemeArg::Still => Scheme::Still,
+            SchemeArg::Continuous => Scheme::Continuous { rate },
+            SchemeArg::Reciprocating => Scheme::Reciprocating {
+                rate: rate.abs(),
+                turns: self.turns.unwrap_or(1),
+            },
+            SchemeArg::Indexed => Scheme::Indexed {
+                rate: rate.abs(),
+                positions: self.positions.unwrap_or(4),
+                dwell_s: self.dwell_s.unwrap_or(10.0),
+            },
+        })
+    }
+
     /// The simulation these flags describe.
     pub fn config(&self) -> Result<SimConfig> {
         let axis = match self.axis {
@@ -127,20 +171,7 @@ impl Args {
         } else {
             sensor_to_simulate(&self.sensor)?
         };
-        let rate = self.rate_dps.to_radians();
-        let scheme = match self.scheme {
-            SchemeArg::Still => Scheme::Still,
-            SchemeArg::Continuous => Scheme::Continuous { rate },
-            SchemeArg::Reciprocating => Scheme::Reciprocating {
-                rate: rate.abs(),
-                turns: self.turns,
-            },
-            SchemeArg::Indexed => Scheme::Indexed {
-                rate: rate.abs(),
-                positions: self.positions,
-                dwell_s: self.dwell_s,
-            },
-        };
+        let scheme = self.rotation()?;
         if !(-90.0..=90.0).contains(&self.site.lat_deg) {
             return Err(anyhow!(
                 "--lat-deg {} is outside [-90, 90]",

@@ -51,7 +51,11 @@ pub struct Args {
 /// Runs `rins study`.
 pub fn run(a: &Args) -> Result<()> {
     let shard = a.shard.unwrap_or(Shard::ALL);
-    super::shard_needs_json(shard, a.json.as_deref())?;
+    super::shard_needs_json(
+        shard,
+        a.json.as_deref(),
+        &[("--markdown", a.markdown.is_some())],
+    )?;
     let real = if a.real_noise || a.real_noise_file.is_some() {
         let path = a.real_noise_file.clone().unwrap_or_else(|| {
             super::shared_data().join("adis16405_static/adis_16405_imu1_f32le_1000000x6.bin")

@@ -1,4 +1,4 @@
-//! `rins diagnose --sensor-out`: a sensor file (`rins-sensor/1`) from a
+//! `rins diagnose --sensor-out`: a sensor file (`rins-sensor/2`) from a
 //! diagnosis: what the findings measured of the sensor itself (per triad
 //! the RMS over the axes it was found on: g-sensitivity, scale
 //! nonlinearity and asymmetry, temperature coefficients, latency), on top

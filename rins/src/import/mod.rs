@@ -83,6 +83,12 @@ fn sample_times(
 ) -> Result<Vec<f64>> {
     let stamps = || csv.samples.iter().map(|s| s.stamp_s);
     if map.source == columns::TimeSource::Gpst {
+        if let Some(t) = &input.imu_tag {
+            bail!(
+                "--imu-tag {}: the column map's time source is \"gpst\" (the time column is GPST already); a tag file is read only with source \"tag\"",
+                t.display()
+            );
+        }
         return Ok(stamps().collect());
     }
     let tag_path = input.imu_tag.clone().unwrap_or_else(|| {
