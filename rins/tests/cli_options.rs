@@ -2,38 +2,13 @@
 //! `simulate --like` changes the result or is refused with the reason,
 //! on the bundled real walk and on a simulated drive.
 
+mod common;
+
+use common::{ok, refused, rins, s};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn rins(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_rins"))
-        .args(args)
-        .env("RUST_BACKTRACE", "0")
-        .output()
-        .unwrap()
-}
-
-fn ok(o: &Output) -> String {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-fn refused(o: &Output, words: &[&str]) {
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "exit 0; stderr {err}");
-    for w in words {
-        assert!(err.contains(w), "{w:?} not in: {err}");
-    }
-}
 
 fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rins-options-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
-fn s(p: &Path) -> String {
-    p.to_string_lossy().into_owned()
+    common::tmp(&format!("options-{name}"))
 }
 
 /// The bundled real walk imported into `dir/rec`.
