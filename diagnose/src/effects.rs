@@ -258,8 +258,8 @@ impl Candidate {
                             ch: 3 + i,
                             param: j,
                             col: col(&|r| {
-                                let (_, w, a) = p.theta[r];
-                                t1[i] * a + t2[i] * w * w
+                                let (w2, a) = p.motion[r];
+                                t1[i] * a + t2[i] * w2
                             }),
                         });
                     }
