@@ -54,6 +54,10 @@ pub struct Finding {
     pub explanation: String,
     /// Fitted parameters.
     pub parameters: Vec<Parameter>,
+    /// Parameters of this finding the run cannot measure (a white noise
+    /// the fit does not hold, a floor the run does not reach): named
+    /// here, absent from `parameters`, never written as 0.
+    pub not_measured: Vec<String>,
     /// BIC of the model with the finding minus without (negative: better).
     pub delta_bic: f64,
     /// The finding's amplitude over its standard error.
@@ -116,6 +120,7 @@ impl Finding {
             "where": self.where_,
             "explanation": self.explanation,
             "parameters": params,
+            "not_measured": self.not_measured,
             "significance": {"delta_bic": self.delta_bic, "snr": self.snr},
             "fit": {
                 "residual_rms_before": per_channel(&self.fit.residual_rms_before),

@@ -81,8 +81,27 @@ pub(super) fn report(
     let model = model_samples(p, d, &sel.fit);
     let res_after = residuals(p, &model);
     let mut findings: Vec<(f64, Finding)> = vec![];
+    let mut demoted = vec![];
     for (ci, j) in judged {
         let c = &d.cands[*ci];
+        if j.channels.is_empty() {
+            // It lowers no channel's held-out rms: a located mismatch,
+            // not a finding.
+            demoted.push(super::Unexplained {
+                channels: j
+                    .rising
+                    .iter()
+                    .filter_map(|ch| super::CHANNELS.get(*ch).map(|s| s.to_string()))
+                    .collect(),
+                where_: format!(
+                    "{}: selected by the fit, but it lowers no channel's held-out rms (a wrong fit of it, or not this physics)",
+                    c.id
+                ),
+                snr: j.snr,
+                may_be: Some(c.id),
+            });
+            continue;
+        }
         let f1 = &sel.fit;
         let mut params = vec![];
         for (pi, pn) in d.names[*ci].iter().enumerate() {
@@ -127,6 +146,7 @@ pub(super) fn report(
                 explanation: j.explanation.clone(),
                 lookalike: j.lookalike,
                 parameters: params,
+                not_measured: vec![],
                 delta_bic: j.dbic,
                 snr: j.snr,
                 dof: j.k,
@@ -168,7 +188,7 @@ pub(super) fn report(
         .map(|(z, gm, wn, _)| (z, gm, wn))
         .collect();
     for triad in 0..2 {
-        let mut params = vec![];
+        let (mut params, mut not_measured) = (vec![], vec![]);
         let (mut chans, mut dbic_sum, mut chi) = (vec![], 0.0, 0.0f64);
         let (mut before, mut after) = (vec![], vec![]);
         let (mut hb, mut ha, mut nr) = (0.0, 0.0, 0.0);
@@ -214,12 +234,28 @@ pub(super) fn report(
             // correlation times the Allan curve cannot tell a wander from
             // flicker, the likelihood can).
             let a = allan.get(ch).copied().unwrap_or_default();
-            for (name, value) in [
-                (format!("bias_instability_{ax}_{unit}"), a.bias_instability),
-                (format!("gm_sigma_{ax}_{unit}"), gm.gm_sigma()),
-                (format!("gm_tau_{ax}_s"), gm.tau_s().min(1e12)),
-                (format!("white_noise_{ax}_{wunit}"), a.white),
+            for (name, value, measured) in [
+                (
+                    format!("bias_instability_{ax}_{unit}"),
+                    a.bias_instability,
+                    a.floor_seen,
+                ),
+                (
+                    format!("gm_sigma_{ax}_{unit}"),
+                    gm.gm_sigma(),
+                    gm.gm_sigma() > 0.0,
+                ),
+                (
+                    format!("gm_tau_{ax}_s"),
+                    gm.tau_s().min(1e12),
+                    gm.gm_sigma() > 0.0,
+                ),
+                (format!("white_noise_{ax}_{wunit}"), a.white, a.white > 0.0),
             ] {
+                if !measured {
+                    not_measured.push(name);
+                    continue;
+                }
                 params.push(Parameter {
                     name,
                     value,
@@ -241,6 +277,7 @@ pub(super) fn report(
                         block_s
                     ),
                     parameters: params,
+                    not_measured,
                     delta_bic: dbic_sum,
                     snr: chi,
                     dof: 2,
@@ -297,7 +334,8 @@ pub(super) fn report(
     let part = locate::parts(p);
     let locate = locate::locate(p, &part, &res_before, dt);
     let block_res: Vec<Vec<f64>> = (0..6).map(|ch| d.block_residual(&sel.fit, ch)).collect();
-    let unexplained = locate::unexplained(p, &part, &block_res, &noise_final, len, ln_n);
+    let mut unexplained = locate::unexplained(p, &part, &block_res, &noise_final, len, ln_n);
+    unexplained.extend(demoted);
 
     Diagnosis {
         recording: name.to_string(),

@@ -331,6 +331,8 @@ pub(super) struct Judged {
     /// Degrees of freedom.
     pub(super) k: usize,
     pub(super) channels: Vec<usize>,
+    /// Channels it was fitted on whose held-out rms it does not lower.
+    pub(super) rising: Vec<usize>,
     pub(super) explanation: String,
     pub(super) lookalike: Option<EffectId>,
     pub(super) fit: FitFigures,
@@ -375,6 +377,13 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             })
             .filter(|ch| (f0.rss_p[*ch] - f1.rss_p[*ch]).abs() > 1e-9 * f0.rss_p[*ch])
             .collect();
+        // A finding claims only the channels whose held-out rms it
+        // lowers: one it makes worse there is a wrong fit of it, or not
+        // this physics (with none left it is no finding: `report` keeps it
+        // as a located mismatch).
+        let (chans, rising): (Vec<usize>, Vec<usize>) = chans
+            .into_iter()
+            .partition(|ch| f1.ho_p[*ch] < f0.ho_p[*ch]);
         let (mut before, mut after) = (vec![], vec![]);
         let (mut hb, mut ha, mut nr) = (0.0, 0.0, 0usize);
         for &ch in &chans {
@@ -454,9 +463,20 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
                 }
             }
         }
+        if !rising.is_empty() {
+            let names: Vec<&str> = rising
+                .iter()
+                .filter_map(|c| super::CHANNELS.get(*c).copied())
+                .collect();
+            explanation += &format!(
+                ". Not claimed on {}: fitted there, it does not lower the held-out rms",
+                names.join(", ")
+            );
+        }
         out.push((
             ci,
             Judged {
+                rising,
                 dbic,
                 snr: dchi.sqrt(),
                 k,

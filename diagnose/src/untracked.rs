@@ -180,17 +180,29 @@ pub fn finding(u: &Untracked, allan: &[NoiseFit], blocks: usize) -> Finding {
             u.unfollowed.1
         ),
         explanation: format!(
-            "the table moves between encoder reads in ways the track cannot follow (a stepper's steps, cogging): rate noise on the table-axis gyro, not the sensor's; {}. Taken out of that channel's white noise: the sensor's own there is the quieter cross axis's {:.3} deg/sqrt(h), the motion's {:.3} deg/sqrt(h)",
+            "the table moves between encoder reads in ways the track cannot follow (a stepper's steps, cogging): rate noise on the table-axis gyro, not the sensor's; {}. Taken out of that channel's white noise: the sensor's own there is {}, the motion's {:.3} deg/sqrt(h)",
             u.needs,
-            sensor * dps * 60.0,
+            if sensor > 0.0 {
+                format!("the quieter cross axis's {:.3} deg/sqrt(h)", sensor * dps * 60.0)
+            } else {
+                "not measured here (no cross axis's white noise in its fit)".into()
+            },
             motion * dps * 60.0
         ),
-        parameters: vec![
-            par("untracked_rate_rms_radps", motion_rms),
-            par("untracked_density_rad_per_sqrt_s", motion),
-            par("sensor_white_rad_per_sqrt_s", sensor),
-            par("untracked_peak_hz", u.peak_hz),
-        ],
+        parameters: [
+            Some(par("untracked_rate_rms_radps", motion_rms)),
+            Some(par("untracked_density_rad_per_sqrt_s", motion)),
+            (sensor > 0.0).then(|| par("sensor_white_rad_per_sqrt_s", sensor)),
+            Some(par("untracked_peak_hz", u.peak_hz)),
+        ]
+        .into_iter()
+        .flatten()
+        .collect(),
+        not_measured: if sensor > 0.0 {
+            vec![]
+        } else {
+            vec!["sensor_white_rad_per_sqrt_s".into()]
+        },
         delta_bic: -chi2 + nb.ln(),
         snr: chi2.sqrt(),
         dof: 1,

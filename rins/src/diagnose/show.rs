@@ -206,6 +206,9 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
                 }
             }
         }
+        for k in &f.not_measured {
+            let _ = writeln!(o, "   {k}: not measured here");
+        }
         let _ = writeln!(
             o,
             "   how sure: delta BIC {:.0} (lower by 10 is very strong), SNR {:.1}, confidence {} (noise alone: p = {}, times the effects tried); held-out rms {:.3e} -> {:.3e}",
