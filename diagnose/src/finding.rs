@@ -149,6 +149,27 @@ pub struct Unexplained {
     pub may_be: Option<EffectId>,
 }
 
+/// One parameter's power in a run ([`Details::observability`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Observability {
+    /// The effect.
+    pub effect: EffectId,
+    /// The parameter (its name carries its unit).
+    pub parameter: String,
+    /// The smallest size the run shows half the time; `None`: the run
+    /// cannot separate it from the model at all.
+    pub min_detectable: Option<f64>,
+    /// Its physical bound.
+    pub bound: f64,
+}
+
+impl Observability {
+    /// Can this run show a physically possible size of it?
+    pub fn observable(&self) -> bool {
+        self.min_detectable.is_some_and(|m| m <= self.bound)
+    }
+}
+
 /// What a person reads beyond the JSON, and what the plots draw.
 #[derive(Clone, Debug, Default)]
 pub struct Details {
@@ -156,6 +177,13 @@ pub struct Details {
     pub noise: Vec<Noise>,
     /// Effects not excited by this run, with the experiment that would.
     pub not_observable: Vec<(EffectId, String)>,
+    /// Each candidate parameter's power in this run: the smallest size
+    /// the run would show (detected half the time, alone beyond the final
+    /// model: its sigma there times sqrt of the one-degree noncentrality)
+    /// against its physical bound, in the parameter's unit. "Not named"
+    /// means "not there" where this is below the bound, "cannot be seen
+    /// here" where it is above.
+    pub observability: Vec<Observability>,
     /// The noise terms of the final residual per channel, from the one
     /// noise estimator (`rins allan`'s Allan fit): what the report prints.
     pub allan: Vec<core_nav::allan::NoiseFit>,
@@ -287,6 +315,13 @@ impl Diagnosis {
             "segments": segments,
             "rate_hz": det.rate_hz,
             "track_unfollowed": unfollowed,
+            "observability": det.observability.iter().map(|o| json!({
+                "effect": o.effect.as_str(),
+                "parameter": o.parameter,
+                "min_detectable": o.min_detectable,
+                "bound": o.bound,
+                "observable": o.observable(),
+            })).collect::<Vec<_>>(),
         })
     }
 }

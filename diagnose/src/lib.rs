@@ -61,7 +61,7 @@ pub mod twin;
 pub mod untracked;
 
 pub use error::DiagnoseError;
-pub use finding::{Details, Diagnosis, Finding, FitFigures, Parameter, Unexplained};
+pub use finding::{Details, Diagnosis, Finding, FitFigures, Observability, Parameter, Unexplained};
 pub use fisher::{allan_excess, fisher, lambda_50};
 pub use model::{Model, Options};
 pub use predict::{encoder_quantum, predict, rms, Blocks, Prediction};

@@ -5,7 +5,7 @@
 use super::design::{Design, Fit, Key};
 use super::effects::Kind;
 use super::noise::{self, Noise};
-use super::select::{params_of, Judged, Selection};
+use super::select::{Judged, Selection};
 use super::{
     dt_of, locate, Details, Diagnosis, Finding, FitFigures, Parameter, Prediction, BIC_MARGIN,
 };
@@ -302,34 +302,57 @@ pub(super) fn report(
     }
     findings.sort_by(|a, b| a.0.total_cmp(&b.0));
     let findings: Vec<Finding> = findings.into_iter().map(|(_, f)| f).collect();
-    // Not excited by this run.
-    let mut not_observable = vec![];
+    // Not excited by this run: no parameter of it left in a fit beside
+    // the final model, or none the run would show at a physically possible
+    // size.
+    let lam1 = super::fisher::lambda_50(1, d.rows()).sqrt();
+    let (mut not_observable, mut observability) = (vec![], vec![]);
     let mut seen: Vec<EffectId> = vec![];
     for (ci, c) in d.cands.iter().enumerate() {
         if seen.contains(&c.id) {
             continue;
         }
-        let same: Vec<usize> = d
-            .cands
-            .iter()
-            .enumerate()
-            .filter(|(_, x)| x.id == c.id)
-            .map(|(i, _)| i)
-            .collect();
-        let excited = same.iter().any(|&i| {
+        seen.push(c.id);
+        let mut power = vec![];
+        for (i, x) in d.cands.iter().enumerate().filter(|(_, x)| x.id == c.id) {
             let mut s: Vec<usize> = sel
                 .set
                 .iter()
                 .copied()
-                .filter(|x| d.cands[*x].id != c.id)
+                .filter(|y| d.cands[*y].id != c.id)
                 .collect();
             s.push(i);
-            params_of(&d.fit(&s), i) > 0
-        });
-        if !excited {
-            not_observable.push((c.id, d.cands[ci].excite().to_string()));
+            let f = d.fit(&s);
+            for (pi, pn) in d.names[i].iter().enumerate() {
+                let sigma = f.value(Key::Effect { cand: i, param: pi }).map(|(_, s)| s);
+                power.push(super::Observability {
+                    effect: c.id,
+                    parameter: pn.clone(),
+                    min_detectable: sigma
+                        .filter(|s| s.is_finite() && *s > 0.0)
+                        .map(|s| s * lam1),
+                    bound: x.bound().max_abs,
+                });
+            }
         }
-        seen.push(c.id);
+        if !power.iter().any(super::Observability::observable) {
+            let best = power
+                .iter()
+                .filter_map(|o| Some((o.min_detectable? / o.bound, o)))
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            let why = match best {
+                Some((_, o)) => format!(
+                    "{} (this run would show {} only from {:.3e}, beyond its physical bound {:.3e})",
+                    d.cands[ci].excite(),
+                    o.parameter,
+                    o.min_detectable.unwrap_or(f64::INFINITY),
+                    o.bound
+                ),
+                None => d.cands[ci].excite().to_string(),
+            };
+            not_observable.push((c.id, why));
+        }
+        observability.extend(power);
     }
     let part = locate::parts(p);
     let locate = locate::locate(p, &part, &res_before, dt);
@@ -344,6 +367,7 @@ pub(super) fn report(
         details: Details {
             noise: noise_final,
             not_observable,
+            observability,
             ruled_out: super::effects::ruled_out(p),
             allan,
             segments: recording::segments(&p.t_s, p.dt_s)
