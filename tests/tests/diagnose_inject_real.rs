@@ -158,7 +158,7 @@ fn a_g_sensitivity_hidden_in_the_real_stepper_run_is_found_at_its_size() {
 }
 
 #[test]
-fn an_accelerometer_nonlinearity_hidden_in_the_real_stepper_run_is_found_at_its_size() {
+fn an_accelerometer_nonlinearity_below_the_real_runs_power_is_reported_so() {
     // 0.3 % at 1 g on y, from the measured specific force: below this
     // run's power (3.3e-4 per m/s^2), which the report must say. (At
     // 0.5 %, above it, the fit comes out negative and beyond the bound on
