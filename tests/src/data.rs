@@ -29,7 +29,7 @@ pub struct Dataset {
 }
 
 /// Every external dataset a test reads.
-pub const EXTERNAL: [Dataset; 3] = [
+pub const EXTERNAL: [Dataset; 4] = [
     Dataset {
         dir: "adis16405_static",
         probe: "adis_16405_imu1_f32le_1000000x6.bin",
@@ -57,6 +57,14 @@ pub const EXTERNAL: [Dataset; 3] = [
         used_by: &[
             "allan_reference::overlapping_adev_matches_stable32_all_tau",
             "allan_reference::non_overlapping_adev_matches_stable32_octaves",
+        ],
+    },
+    Dataset {
+        dir: "mpu6050_stepper_roll_slow",
+        probe: "recording/imu.csv",
+        licence: "MIT (Song, Pei, Hsiao-Wecksler 2022); its first 300 s are bundled in tests/data",
+        used_by: &[
+            "diagnose_inject_real::an_accelerometer_nonlinearity_hidden_in_the_whole_real_run_is_found_at_its_size",
         ],
     },
     Dataset {
