@@ -109,6 +109,10 @@ pub(super) struct Fit {
     /// Physical rss per channel (all rows) and held-out rss per channel.
     pub(super) rss_p: [f64; 6],
     pub(super) ho_p: [f64; 6],
+    /// Whitened held-out rss per channel (each block's residual over the
+    /// noise model's prediction of it: a drift between folds counts as
+    /// the noise it is, not as misfit).
+    pub(super) ho_wc: [f64; 6],
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -386,13 +390,14 @@ impl Design {
         let (beta, cov) = solve(&a, &b);
         let rss_w = quad(yy, &b, &a, &beta);
         let mut ho_w = 0.0;
-        let mut ho_p = [0.0; 6];
+        let (mut ho_p, mut ho_wc) = ([0.0; 6], [0.0; 6]);
         for f in 0..self.folds {
             let ((af, bf), yf) = self.normal(&idx2, &all, Some(f));
             let (bt, _) = solve(&(&a - &af), &(&b - &bf));
             ho_w += quad(yf, &bf, &af, &bt);
-            for (ch, hp) in ho_p.iter_mut().enumerate() {
-                *hp += self.phys(&idx2, ch, &bt, Some(f));
+            for ch in 0..6 {
+                ho_p[ch] += self.quad_ch(&self.ch[ch].gram_p, &idx2, ch, &bt, Some(f));
+                ho_wc[ch] += self.quad_ch(&self.ch[ch].gram_w, &idx2, ch, &bt, Some(f));
             }
         }
         let mut rss_p = [0.0; 6];
@@ -407,6 +412,7 @@ impl Design {
             ho_w,
             rss_p,
             ho_p,
+            ho_wc,
         }
     }
 
@@ -497,8 +503,21 @@ impl Design {
         beta: &DVector<f64>,
         fold: Option<usize>,
     ) -> f64 {
+        self.quad_ch(&self.ch[ch].gram_p, index, ch, beta, fold)
+    }
+
+    /// Residual sum of squares of channel `ch` under `beta` from one of
+    /// its grams (`gram_p` physical, `gram_w` whitened).
+    fn quad_ch(
+        &self,
+        gram: &[DMatrix<f64>],
+        index: &[(Key, usize)],
+        ch: usize,
+        beta: &DVector<f64>,
+        fold: Option<usize>,
+    ) -> f64 {
         let cd = &self.ch[ch];
-        let g = gram_sum(&cd.gram_p, fold);
+        let g = gram_sum(gram, fold);
         let m = cd.owners.len();
         let mut coef = DVector::zeros(m + 1);
         coef[m] = -1.0;

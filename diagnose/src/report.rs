@@ -94,7 +94,7 @@ pub(super) fn report(
                     .filter_map(|ch| super::CHANNELS.get(*ch).map(|s| s.to_string()))
                     .collect(),
                 where_: format!(
-                    "{}: selected by the fit, but it lowers no channel's held-out rms (a wrong fit of it, or not this physics)",
+                    "{}: selected by the fit, but it makes the held-out residual of every channel it touches worse (a wrong fit of it, or not this physics)",
                     c.id
                 ),
                 snr: j.snr,

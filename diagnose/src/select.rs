@@ -377,13 +377,29 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             })
             .filter(|ch| (f0.rss_p[*ch] - f1.rss_p[*ch]).abs() > 1e-9 * f0.rss_p[*ch])
             .collect();
-        // A finding claims only the channels whose held-out rms it
-        // lowers: one it makes worse there is a wrong fit of it, or not
-        // this physics (with none left it is no finding: `report` keeps it
-        // as a located mismatch).
-        let (chans, rising): (Vec<usize>, Vec<usize>) = chans
-            .into_iter()
-            .partition(|ch| f1.ho_p[*ch] < f0.ho_p[*ch]);
+        // A finding claims only the channels whose held-out residual
+        // (whitened: each block against the noise model's prediction of it,
+        // so the bias's wander between folds is noise, not misfit) it does
+        // not make worse: one it makes worse there is a wrong fit of
+        // it, or not this physics (with none left it is no finding:
+        // `report` keeps it as a located mismatch). Worse is beyond what
+        // fitting its k parameters on that channel costs out of sample when
+        // they are nothing (k residual variances; twice that, the spread
+        // of that cost): a weak true effect's held-out gain is itself
+        // noisy, and on a channel it barely touches, it is zero.
+        let k_on = |ch: usize| {
+            d.ch[ch]
+                .owners
+                .iter()
+                .filter(|o| matches!(o, Owner::Effect { cand, .. } if *cand == ci))
+                .count() as f64
+        };
+        let worse = |ch: usize| {
+            let n = d.nrows_ch(ch, None).max(1) as f64;
+            f1.ho_wc[ch] - f0.ho_wc[ch] > 2.0 * k_on(ch) * f0.ho_wc[ch] / n
+        };
+        let (chans, rising): (Vec<usize>, Vec<usize>) =
+            chans.into_iter().partition(|ch| !worse(*ch));
         let (mut before, mut after) = (vec![], vec![]);
         let (mut hb, mut ha, mut nr) = (0.0, 0.0, 0usize);
         for &ch in &chans {
@@ -469,7 +485,7 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
                 .filter_map(|c| super::CHANNELS.get(*c).copied())
                 .collect();
             explanation += &format!(
-                ". Not claimed on {}: fitted there, it does not lower the held-out rms",
+                ". Not claimed on {}: fitted there, it makes the held-out residual worse",
                 names.join(", ")
             );
         }

@@ -304,6 +304,13 @@ fn json_has_every_key_of_the_spec_and_only_documented_additions() {
         ".track_unfollowed",
         ".track_unfollowed[].end_s",
         ".track_unfollowed[].start_s",
+        ".findings[].not_measured",
+        ".observability",
+        ".observability[].bound",
+        ".observability[].effect",
+        ".observability[].min_detectable",
+        ".observability[].observable",
+        ".observability[].parameter",
     ];
     let missing: Vec<&String> = want.iter().filter(|k| !got.contains(k)).collect();
     assert!(missing.is_empty(), "spec keys missing: {missing:?}");

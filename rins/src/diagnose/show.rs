@@ -282,7 +282,7 @@ pub fn text(d: &Diagnosis, name: &str) -> String {
             match claims.is_empty() {
                 true => "; no finding claims this channel (its nominal terms were refitted with the others')".to_string(),
                 false => format!(
-                    "; {} claim it: each is kept only where it improves held-out blocks (above), and a finding that makes its own channel worse per sample is suspect",
+                    "; {} claim it: each claims a channel only where it does not make the held-out blocks worse against the noise model (a finding that does is named in its text as not claimed there)",
                     claims.join(", ")
                 ),
             }
