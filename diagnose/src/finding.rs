@@ -257,6 +257,15 @@ pub struct Diagnosis {
 }
 
 impl Diagnosis {
+    /// The parameter `name` of the finding of `effect`, if one is named
+    /// and has it.
+    pub fn parameter(&self, effect: EffectId, name: &str) -> Option<&Parameter> {
+        self.findings
+            .iter()
+            .filter(|f| f.effect == effect)
+            .find_map(|f| f.parameter(name))
+    }
+
     /// The recording `rec` (the one diagnosed) with its IMU samples replaced
     /// by the fitted model's: the same run re-simulated, to compare or to
     /// diagnose again.

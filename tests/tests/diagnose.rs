@@ -4,6 +4,7 @@
 //! hour shows bias instability.
 
 use core_nav::table::Axis;
+use hal_sim::catalogue::EffectId;
 use hal_sim::imu::ImuSpec;
 use hal_sim::sim::{simulate, SimConfig};
 use rins::diagnose::{run, Diagnosis, Model, Options};
@@ -39,11 +40,8 @@ fn named(d: &Diagnosis) -> Vec<&str> {
 
 /// A parameter and its 1-sigma.
 fn param(d: &Diagnosis, effect: &str, name: &str) -> (f64, f64) {
-    let f = d.findings.iter().find(|f| f.effect == effect).unwrap();
-    (
-        f.value(name).unwrap(),
-        f.parameter(name).and_then(|p| p.sigma).unwrap(),
-    )
+    let p = d.parameter(EffectId::parse(effect).unwrap(), name).unwrap();
+    (p.value, p.sigma.unwrap())
 }
 
 /// Inside the confidence interval: 3 sigma (99.7 %) of the fit's own

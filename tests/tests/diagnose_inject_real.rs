@@ -77,11 +77,7 @@ fn untouched(rec: Recording) -> (Recording, Diagnosis) {
 }
 
 fn param(d: &Diagnosis, effect: EffectId, name: &str) -> (f64, f64) {
-    d.findings
-        .iter()
-        .filter(|f| f.effect == effect)
-        .flat_map(|f| f.parameters.iter())
-        .find(|p| p.name == name)
+    d.parameter(effect, name)
         .map_or((0.0, 0.0), |p| (p.value, p.sigma.unwrap_or(0.0)))
 }
 

@@ -27,11 +27,7 @@ fn named(d: &Diagnosis) -> Vec<EffectId> {
 }
 
 fn param(d: &Diagnosis, effect: EffectId, name: &str) -> Option<(f64, f64)> {
-    d.findings
-        .iter()
-        .filter(|f| f.effect == effect)
-        .flat_map(|f| &f.parameters)
-        .find(|p| p.name == name)
+    d.parameter(effect, name)
         .map(|p| (p.value, p.sigma.unwrap_or(0.0)))
 }
 
