@@ -505,34 +505,19 @@ const COMMAND_AIDED: Walk = Walk {
 #[rustfmt::skip]
 const COMMAND_START: Walk = Walk {
     cmd: &["command", "start"],
-    cases: &[same(
-        "--threads",
-        &["--port", "{board}", "start", "--threads", "1"],
-        &["--port", "{board}", "start", "--threads", "3"],
-        &[],
-    )],
+    cases: &[elsewhere("--threads", "cli_walk.rs", "command")],
 };
 
 #[rustfmt::skip]
 const COMMAND_STOP: Walk = Walk {
     cmd: &["command", "stop"],
-    cases: &[same(
-        "--threads",
-        &["--port", "{board}", "stop", "--threads", "1"],
-        &["--port", "{board}", "stop", "--threads", "3"],
-        &[],
-    )],
+    cases: &[elsewhere("--threads", "cli_walk.rs", "command")],
 };
 
 #[rustfmt::skip]
 const COMMAND_RECALIBRATE: Walk = Walk {
     cmd: &["command", "recalibrate"],
-    cases: &[same(
-        "--threads",
-        &["--port", "{board}", "recalibrate", "--threads", "1"],
-        &["--port", "{board}", "recalibrate", "--threads", "3"],
-        &[],
-    )],
+    cases: &[elsewhere("--threads", "cli_walk.rs", "command")],
 };
 
 #[rustfmt::skip]
