@@ -211,9 +211,12 @@ impl Design {
             .par_iter()
             .enumerate()
             .map(|(ci, c)| {
+                // A column of exact zeros is no regressor (a wobble's
+                // parts on the table-axis gyro): the channel is not the
+                // candidate's to claim.
                 c.terms(p)
                     .into_iter()
-                    .filter(|t| p.recorded(t.ch))
+                    .filter(|t| p.recorded(t.ch) && t.col.iter().any(|x| *x != 0.0))
                     .map(|t| {
                         let owner = Owner::Effect {
                             cand: ci,

@@ -85,6 +85,33 @@ fn normals(k: &Vector3<f64>) -> [(Vector3<f64>, &'static str); 2] {
     [(Vector3::ith(a, 1.0), AX[a]), (Vector3::ith(b, 1.0), AX[b])]
 }
 
+/// One part of a wobble parameter: (harmonic n, on the axis's second
+/// normal, its sine, weight): the parameter adds `weight * value *
+/// {cos|sin}(n theta)` to the rocking about that normal.
+type WobblePart = (usize, bool, bool, f64);
+
+/// The wobble's parameters, each as its parts, in [`Kind::Wobble`]'s name
+/// order. At once per revolution, a rocking that stays fixed in the table's
+/// base (`u1 cos - u2 sin`, `u1 sin + u2 cos`, for `theta` positive about
+/// `k = u1 x u2`) is no wobble at all: the sensor turned by one fixed
+/// rotation of the base, a tilt of the base, which gravity and the earth
+/// rate alone show and the tilt terms carry. So the 1x parameters are the
+/// two parts that turn with the table: `wobble_1x_cos_rad` the rocking
+/// `c (u1 cos + u2 sin)`, `wobble_1x_sin_rad` `s (u1 sin - u2 cos)`; a
+/// rocking about one normal alone is half this and half a tilt. The 2x
+/// harmonic has no such part: each normal, cos and sin.
+fn wobble_parts() -> [Vec<WobblePart>; 6] {
+    let one = |second, sine| vec![(2, second, sine, 1.0)];
+    [
+        vec![(1, false, false, 1.0), (1, true, true, 1.0)],
+        vec![(1, false, true, 1.0), (1, true, false, -1.0)],
+        one(false, false),
+        one(false, true),
+        one(true, false),
+        one(true, true),
+    ]
+}
+
 impl Candidate {
     /// A slow effect (temperature, warm-up): its signal lives at periods of
     /// minutes, where a noise model fitted to short blocks is least sure.
@@ -146,13 +173,13 @@ impl Candidate {
             Kind::AccelK2 => per_axis(&|a| format!("k2_{a}_per_mps2")),
             Kind::Wobble => {
                 let [(_, a1), (_, a2)] = normals(&p.k);
-                (1..=2)
-                    .flat_map(|n| {
-                        [a1, a2].into_iter().flat_map(move |a| {
-                            ["cos", "sin"].map(move |f| format!("wobble_{n}x_{a}_{f}_rad"))
-                        })
-                    })
-                    .collect()
+                let mut v = vec!["wobble_1x_cos_rad".to_string(), "wobble_1x_sin_rad".into()];
+                v.extend(
+                    [a1, a2].into_iter().flat_map(|a| {
+                        ["cos", "sin"].map(move |f| format!("wobble_2x_{a}_{f}_rad"))
+                    }),
+                );
+                v
             }
         }
     }
@@ -327,21 +354,24 @@ impl Candidate {
                 }
             }
             Kind::Wobble => {
-                // Offered over half a revolution or more: its gyro part is
-                // on the axes normal to the table's, where the encoder's
+                // Offered over a quarter revolution or more: its gyro part
+                // is on the axes normal to the table's, where the encoder's
                 // quantisation does not reach, and it flips with the
                 // direction of turning (a g-sensitivity or the earth rate
-                // does not).
-                if turned(p) < std::f64::consts::PI {
+                // does not). Not at half a turn: a reciprocating table turns
+                // exactly that between its stops, and a cliff there (a
+                // real stepper's 179.7 deg, or its track shifted by a few
+                // ms) offered the term to one pass and not the next.
+                if turned(p) < std::f64::consts::FRAC_PI_2 {
                     return out;
                 }
                 // delta = u h(theta): the sensor turns on its platform by
                 // delta, so w_s = (I - [delta x]) theta_dot k + d delta / dt
                 // = theta_dot (k x u h + u h') and f_s = f x u h.
                 let [(u1, _), (u2, _)] = normals(&k);
-                // cos and sin of theta and 2 theta, once per sample (the 8
-                // parameters x 6 channels would otherwise take them 72 times
-                // a sample: a third of a diagnosis).
+                // cos and sin of theta and 2 theta, once per sample (the
+                // parameters' parts x 6 channels would otherwise take them
+                // 48 times a sample: a third of a diagnosis).
                 let trig: Vec<[f64; 4]> = p
                     .theta
                     .iter()
@@ -351,39 +381,47 @@ impl Candidate {
                         [c1, s1, c2, s2]
                     })
                     .collect();
-                let mut param = 0;
-                for n in 1..=2usize {
-                    let nf = n as f64;
-                    let (ic, is) = (2 * (n - 1), 2 * (n - 1) + 1);
-                    for u in [u1, u2] {
-                        for sine in [false, true] {
-                            // h(theta) and dh/dtheta at sample r.
-                            let at = |r: usize, j: usize| {
-                                trig.get(r).and_then(|t| t.get(j)).copied().unwrap_or(0.0)
-                            };
-                            let h = |r: usize| if sine { at(r, is) } else { at(r, ic) };
-                            let dh = |r: usize| {
-                                if sine {
-                                    nf * at(r, ic)
-                                } else {
-                                    -nf * at(r, is)
-                                }
-                            };
-                            let ku = k.cross(&u);
-                            for i in 0..3 {
-                                out.push(Term {
-                                    ch: i,
-                                    param,
-                                    col: col(&|r| p.theta[r].1 * (ku[i] * h(r) + u[i] * dh(r))),
-                                });
-                                out.push(Term {
-                                    ch: 3 + i,
-                                    param,
-                                    col: col(&|r| p.f[r].cross(&u)[i] * h(r)),
-                                });
-                            }
-                            param += 1;
+                let ku = [k.cross(&u1), k.cross(&u2)];
+                for (param, parts) in wobble_parts().iter().enumerate() {
+                    // h(theta) and dh/dtheta of one part at sample r.
+                    let h = |r: usize, &(n, _, sine, _): &WobblePart| {
+                        let t = trig.get(r).copied().unwrap_or_default();
+                        let at = |j: usize| t.get(j).copied().unwrap_or(0.0);
+                        let (c, s) = (at(2 * n - 2), at(2 * n - 1));
+                        let nf = n as f64;
+                        if sine {
+                            (s, nf * c)
+                        } else {
+                            (c, -nf * s)
                         }
+                    };
+                    let uv = |&(_, second, _, _): &WobblePart| {
+                        if second {
+                            (u2, ku[1])
+                        } else {
+                            (u1, ku[0])
+                        }
+                    };
+                    // delta(theta) = sum of w u h(theta): the gyros see
+                    // theta_dot (k x delta + d delta / d theta), the
+                    // accelerometers f x delta.
+                    let sum = |r: usize, ch: usize| {
+                        parts.iter().fold(0.0, |acc, part| {
+                            let ((hv, dh), (u, kxu), w) = (h(r, part), uv(part), part.3);
+                            let i = ch % 3;
+                            acc + w * if ch < 3 {
+                                p.theta[r].1 * (kxu[i] * hv + u[i] * dh)
+                            } else {
+                                p.f[r].cross(&u)[i] * hv
+                            }
+                        })
+                    };
+                    for ch in 0..6 {
+                        out.push(Term {
+                            ch,
+                            param,
+                            col: col(&|r| sum(r, ch)),
+                        });
                     }
                 }
             }

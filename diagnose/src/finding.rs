@@ -39,6 +39,14 @@ pub struct FitFigures {
     pub heldout_rms_before: f64,
     /// Held-out residual rms with it.
     pub heldout_rms_after: f64,
+    /// Per channel the finding's regressors touch (claimed or not): the
+    /// whitened held-out residual rms (each block against the noise
+    /// model's prediction of it; 1 is the noise), without and with it:
+    /// `(channel, before, after)`. A signal finding claims exactly the
+    /// channels where after < before. Empty for the noise findings
+    /// (untracked motion, bias instability), which take power out of the
+    /// white noise instead.
+    pub heldout_whitened: Vec<(usize, f64, f64)>,
 }
 
 /// One finding of the report (diagnose-v1).
@@ -127,6 +135,9 @@ impl Finding {
                 "residual_rms_after": per_channel(&self.fit.residual_rms_after),
                 "heldout_rms_before": self.fit.heldout_rms_before,
                 "heldout_rms_after": self.fit.heldout_rms_after,
+                "heldout_whitened": self.fit.heldout_whitened.iter().filter_map(|(c, b, a)| {
+                    Some(((*CHANNELS.get(*c)?).to_string(), json!({"before": b, "after": a})))
+                }).collect::<Map<String, Value>>(),
             },
         })
     }

@@ -288,6 +288,7 @@ pub(super) fn report(
                         residual_rms_after: after,
                         heldout_rms_before: (hb / nr.max(1.0)).sqrt(),
                         heldout_rms_after: (ha / nr.max(1.0)).sqrt(),
+                        heldout_whitened: vec![],
                     },
                     lookalike: None,
                 },

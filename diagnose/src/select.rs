@@ -379,25 +379,18 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
             .collect();
         // A finding claims only the channels whose held-out residual
         // (whitened: each block against the noise model's prediction of it,
-        // so the bias's wander between folds is noise, not misfit) it does
-        // not make worse: one it makes worse there is a wrong fit of
-        // it, or not this physics (with none left it is no finding:
-        // `report` keeps it as a located mismatch). Worse is beyond what
-        // fitting its k parameters on that channel costs out of sample when
-        // they are nothing (k residual variances; twice that, the spread
-        // of that cost): a weak true effect's held-out gain is itself
-        // noisy, and on a channel it barely touches, it is zero.
-        let k_on = |ch: usize| {
-            d.ch[ch]
-                .owners
-                .iter()
-                .filter(|o| matches!(o, Owner::Effect { cand, .. } if *cand == ci))
-                .count() as f64
-        };
-        let worse = |ch: usize| {
-            let n = d.nrows_ch(ch, None).max(1) as f64;
-            f1.ho_wc[ch] - f0.ho_wc[ch] > 2.0 * k_on(ch) * f0.ho_wc[ch] / n
-        };
+        // so the bias's wander between folds is noise, not misfit) it
+        // lowers: one it does not lower there is a wrong fit of it, or not
+        // this physics, or a channel it barely touches (with none left it
+        // is no finding: `report` keeps it as a located mismatch).
+        let worse = |ch: usize| f1.ho_wc[ch] >= f0.ho_wc[ch];
+        let whitened: Vec<(usize, f64, f64)> = chans
+            .iter()
+            .map(|&ch| {
+                let n = d.nrows_ch(ch, None).max(1) as f64;
+                (ch, (f0.ho_wc[ch] / n).sqrt(), (f1.ho_wc[ch] / n).sqrt())
+            })
+            .collect();
         let (chans, rising): (Vec<usize>, Vec<usize>) =
             chans.into_iter().partition(|ch| !worse(*ch));
         let (mut before, mut after) = (vec![], vec![]);
@@ -504,6 +497,7 @@ pub(super) fn report_stats(d: &Design, sel: &Selection) -> Vec<(usize, Judged)> 
                     residual_rms_after: after,
                     heldout_rms_before: (hb / nr).sqrt(),
                     heldout_rms_after: (ha / nr).sqrt(),
+                    heldout_whitened: whitened,
                 },
             },
         ));

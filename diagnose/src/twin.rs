@@ -253,10 +253,18 @@ fn put(m: &mut SimModel, name: &str, v: f64, axis_index: usize) {
         }
     } else if name == "warmup_tau_s" {
         m.warmup.get_or_insert_with(Warmup::default).tau_s = v;
+    } else if name == "wobble_1x_cos_rad" {
+        // The once-a-turn rocking that turns with the table (effects.rs,
+        // `wobble_parts`): cos on the first normal and sin on the second.
+        m.wobble_harmonics_rad[0][0] += v;
+        m.wobble_harmonics_rad[0][3] += v;
+    } else if name == "wobble_1x_sin_rad" {
+        m.wobble_harmonics_rad[0][1] += v;
+        m.wobble_harmonics_rad[0][2] -= v;
     } else if let Some(rest) = name.strip_prefix("wobble_") {
-        // wobble_{n}x_{axis}_{cos|sin}_rad: harmonic n on the normal named
-        // by its axis (the first normal follows the table axis cyclically,
-        // as hal-sim's Geometry::normals).
+        // wobble_2x_{axis}_{cos|sin}_rad: the second harmonic on the normal
+        // named by its axis (the first normal follows the table axis
+        // cyclically, as hal-sim's Geometry::normals).
         let n = nth(rest, 0).and_then(|c| c.to_digit(10)).unwrap_or(0) as usize;
         let normal = axis(nth(rest, 3)).map(|a| (a + 3 - axis_index) % 3);
         let sine = usize::from(rest.contains("_sin_"));

@@ -213,6 +213,7 @@ pub fn finding(u: &Untracked, allan: &[NoiseFit], blocks: usize) -> Finding {
             residual_rms_after: vec![(u.ch, u.along_radps)],
             heldout_rms_before: u.along_radps,
             heldout_rms_after: u.along_radps,
+            heldout_whitened: vec![],
         },
         lookalike: None,
     }

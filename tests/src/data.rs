@@ -65,6 +65,7 @@ pub const EXTERNAL: [Dataset; 4] = [
         licence: "MIT (Song, Pei, Hsiao-Wecksler 2022); its first 300 s are bundled in tests/data",
         used_by: &[
             "diagnose_inject_real::an_accelerometer_nonlinearity_hidden_in_the_whole_real_run_is_found_at_its_size",
+            "diagnose_never_worse::real_runs_claim_only_the_channels_they_improve",
         ],
     },
     Dataset {

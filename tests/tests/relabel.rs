@@ -14,11 +14,44 @@ use recording::relabel::{relabel, AxisMap};
 use recording::Recording;
 use rins::diagnose::{run, Diagnosis, Options};
 
+/// The table axis's two normals `u1`, `u2` (cyclic after it: `u1 x u2 =
+/// k`), as diagnose and hal-sim take them.
+fn normals(a: Axis) -> [nalgebra::Vector3<f64>; 2] {
+    let i = a.unit::<f64>().iamax();
+    [(i + 1) % 3, (i + 2) % 3].map(|j| nalgebra::Vector3::ith(j, 1.0))
+}
+
+/// The once-a-turn wobble's two parts in the relabelled axes. The rocking
+/// `c (u1 cos + u2 sin) + s (u1 sin - u2 cos)` is, at `theta = 0` (the
+/// same encoder zero in both labellings), the small rotation `c u1 - s
+/// u2`: carried into the new axes by `P` and read back on the new
+/// normals.
+fn wobble_1x(name: &str, value: f64, m: &AxisMap, old: Axis, new: Axis) -> Option<(String, f64)> {
+    let ([u1, u2], [n1, n2]) = (normals(old), normals(new));
+    let d0 = match name {
+        "wobble_1x_cos_rad" => u1 * value,
+        "wobble_1x_sin_rad" => -u2 * value,
+        _ => return None,
+    };
+    let d = m.p * d0;
+    let (c, s) = (n1.dot(&d), -n2.dot(&d));
+    Some(if c.abs() >= s.abs() {
+        ("wobble_1x_cos_rad".into(), c)
+    } else {
+        ("wobble_1x_sin_rad".into(), s)
+    })
+}
+
 /// A parameter's name and value in the relabelled axes: a `_x_`-style
 /// token is a vector component (`P v`), an `_xy_` token a tensor entry
-/// (`P G P^T`), the encoder's cosine part flips with the table angle; every
+/// (`P G P^T`), the encoder's cosine part flips with the table angle, the
+/// once-a-turn wobble's parts turn with the normals ([`wobble_1x`]); every
 /// other parameter (offsets, the earth rate, noise) is a scalar.
-fn mapped(name: &str, value: f64, m: &AxisMap, angle_sign: f64) -> (String, f64) {
+fn mapped(name: &str, value: f64, m: &AxisMap, axis: Axis) -> (String, f64) {
+    let (new_axis, angle_sign) = m.axis(axis);
+    if let Some(x) = wobble_1x(name, value, m, axis, new_axis) {
+        return x;
+    }
     let ax = |c: char| "xyz".find(c);
     let to = |i: usize| -> (usize, f64) {
         let col = m.p.column(i);
@@ -60,7 +93,7 @@ fn ids(d: &Diagnosis) -> Vec<&'static str> {
 
 /// Every finding of `a` is in `b` with its parameters mapped, within the
 /// larger of the two sigmas.
-fn same(a: &Diagnosis, b: &Diagnosis, m: &AxisMap, angle_sign: f64) -> Result<(), String> {
+fn same(a: &Diagnosis, b: &Diagnosis, m: &AxisMap, axis: Axis) -> Result<(), String> {
     if ids(a) != ids(b) {
         return Err(format!("ids {:?} vs {:?}", ids(a), ids(b)));
     }
@@ -74,7 +107,7 @@ fn same(a: &Diagnosis, b: &Diagnosis, m: &AxisMap, angle_sign: f64) -> Result<()
             .find(|f| f.effect == fa.effect)
             .ok_or("missing")?;
         for pa in fa.parameters.iter().filter(|p| p.sigma.is_some()) {
-            let (name, want) = mapped(&pa.name, pa.value, m, angle_sign);
+            let (name, want) = mapped(&pa.name, pa.value, m, axis);
             let pb = fb
                 .parameters
                 .iter()
@@ -104,9 +137,8 @@ fn check(rec: &Recording, label: &str, maps: &[AxisMap]) -> Vec<String> {
     let mut bad = vec![];
     for m in maps {
         let r = relabel(rec, m).unwrap();
-        let (_, angle_sign) = m.axis(rec.meta.axis);
         let b = run(&r, m.name, &opts).unwrap();
-        if let Err(e) = same(&a, &b, m, angle_sign) {
+        if let Err(e) = same(&a, &b, m, rec.meta.axis) {
             bad.push(format!("{label}, {}: {e}", m.name));
         }
     }
@@ -116,22 +148,33 @@ fn check(rec: &Recording, label: &str, maps: &[AxisMap]) -> Vec<String> {
 #[test]
 fn the_parameter_map_rotates_vectors_and_tensors() {
     let m = AxisMap::CYCLE; // new (x, y, z) = old (y, z, x)
-    assert_eq!(mapped("lever_y_m", 2.0, &m, 1.0), ("lever_x_m".into(), 2.0));
+    let z = Axis::Z;
+    assert_eq!(mapped("lever_y_m", 2.0, &m, z), ("lever_x_m".into(), 2.0));
     assert_eq!(
-        mapped("g_sens_zx_radps_per_mps2", 3.0, &m, 1.0),
+        mapped("g_sens_zx_radps_per_mps2", 3.0, &m, z),
         ("g_sens_yz_radps_per_mps2".into(), 3.0)
     );
-    let f = AxisMap::ROLL_180; // y and z flip
+    let f = AxisMap::ROLL_180; // y and z flip: the table angle about z too
     assert_eq!(
-        mapped("k2_z_per_radps", 1.0, &f, -1.0),
+        mapped("k2_z_per_radps", 1.0, &f, z),
         ("k2_z_per_radps".into(), -1.0)
     );
     assert_eq!(
-        mapped("g_sens_yz_radps_per_mps2", 1.0, &f, -1.0),
+        mapped("g_sens_yz_radps_per_mps2", 1.0, &f, z),
         ("g_sens_yz_radps_per_mps2".into(), 1.0)
     );
-    assert_eq!(mapped("encoder_cos_rad", 1.0, &f, -1.0).1, -1.0);
-    assert_eq!(mapped("time_offset_s", 0.01, &f, -1.0).1, 0.01);
+    assert_eq!(mapped("encoder_cos_rad", 1.0, &f, z).1, -1.0);
+    assert_eq!(mapped("time_offset_s", 0.01, &f, z).1, 0.01);
+    // c (x cos + y sin) + s (x sin - y cos) with y' = -y, theta' = -theta:
+    // c (x' cos' + y' sin') - s (x' sin' - y' cos').
+    assert_eq!(
+        mapped("wobble_1x_cos_rad", 2.0, &f, z),
+        ("wobble_1x_cos_rad".into(), 2.0)
+    );
+    assert_eq!(
+        mapped("wobble_1x_sin_rad", 2.0, &f, z),
+        ("wobble_1x_sin_rad".into(), -2.0)
+    );
 }
 
 #[test]
