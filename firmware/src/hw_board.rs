@@ -354,9 +354,13 @@ pub fn overrun_probe() -> bool {
 /// Nothing after navigation on the board.
 pub fn after_nav(_: &mut firmware::tasks::NavTask<'static>) {}
 
+/// The board's IMU edges come from the end of `init`: the supervision
+/// expects them from boot.
+pub fn sensors_at_init(_: &mut firmware::tasks::LinkTask<'static>) {}
+
 /// After each link run: the stack's peak to the log once a minute (a
 /// probe reads it; the QEMU build prints it).
-pub fn after_link(_: &firmware::tasks::LinkTask<'static>) {
+pub fn after_link(_: &mut firmware::tasks::LinkTask<'static>) {
     static RUNS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
     if RUNS
         .fetch_add(1, core::sync::atomic::Ordering::Relaxed)

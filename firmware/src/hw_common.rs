@@ -282,3 +282,56 @@ pub fn freeze_for_debugger(d: &pac::DBGMCU) {
 pub fn tick_pending() -> bool {
     NVIC::is_pending(Interrupt::EXTI4)
 }
+
+/// The reset log (`firmware::resets`) in RAM the startup code does not
+/// zero (cortex-m-rt's `.uninit` section): what the last run left.
+#[link_section = ".uninit.rins_reset_log"]
+static mut RESET_LOG: core::mem::MaybeUninit<firmware::resets::ResetLog> =
+    core::mem::MaybeUninit::uninit();
+
+/// Reads, changes and writes back the reset log. Volatile: the RAM holds
+/// what the last run wrote (or noise after a power-on, which the log's
+/// check word refuses); every bit pattern is a value of its `u32` fields.
+fn with_reset_log<R>(f: impl FnOnce(&mut firmware::resets::ResetLog) -> R) -> R {
+    let p = core::ptr::addr_of_mut!(RESET_LOG).cast::<firmware::resets::ResetLog>();
+    // SAFETY: called from `init` (interrupts off), from the link task (the
+    // only task that touches it) and from the HardFault handler, which
+    // resets the chip and never returns to the task it preempted.
+    unsafe {
+        let mut log = core::ptr::read_volatile(p);
+        let r = f(&mut log);
+        core::ptr::write_volatile(p, log);
+        r
+    }
+}
+
+/// At boot: this reset counted, and the verdict (resets in a row, safe
+/// mode, a HardFault's registers).
+pub fn reset_verdict(cause: protocol_codes::ResetCause) -> firmware::resets::BootVerdict {
+    with_reset_log(|l| l.boot(cause))
+}
+
+/// The board ran healthily: the row of resets is over.
+pub fn reset_healthy() {
+    with_reset_log(firmware::resets::ResetLog::healthy);
+}
+
+/// A HardFault: its registers kept for the next boot's report, then a
+/// reset (`SYSRESETREQ`: the next boot reads "software" and the log's
+/// fault).
+#[cortex_m_rt::exception]
+unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
+    // SAFETY: SCB's fault status and address registers are read-only
+    // status here (ARMv7-M B3.2.15-B3.2.18).
+    let scb = unsafe { &*cortex_m::peripheral::SCB::PTR };
+    let regs = firmware::resets::FaultRegs {
+        cfsr: scb.cfsr.read(),
+        hfsr: scb.hfsr.read(),
+        mmfar: scb.mmfar.read(),
+        bfar: scb.bfar.read(),
+        pc: ef.pc(),
+        lr: ef.lr(),
+    };
+    with_reset_log(|l| l.hard_fault(regs));
+    cortex_m::peripheral::SCB::sys_reset()
+}

@@ -375,11 +375,18 @@ pub fn count_edge() {
 }
 
 /// The IMU powers up when the host's configuration has come.
-pub fn after_link(link: &LinkTask<'static>) {
+pub fn after_link(link: &mut LinkTask<'static>) {
     if !POWERED.load(Ordering::Relaxed) && link.commands() >= NEED_COMMANDS.load(Ordering::Relaxed)
     {
         POWERED.store(true, Ordering::Relaxed);
+        link.sensors_started();
     }
+}
+
+/// The replay's sensors are powered only when the host's configuration
+/// has come (`after_link`): no edge is expected before.
+pub fn sensors_at_init(link: &mut LinkTask<'static>) {
+    link.sensors_later();
 }
 
 /// At the replay's end: the report, and QEMU's exit with its result.

@@ -14,6 +14,8 @@
 //! - [`record`]: the flash journal (erases only at boot).
 //! - [`faults`]: counted, rate-limited fault reports.
 //! - [`watchdog`]: the watchdog's progress rule.
+//! - [`resets`]: what survives a reset (resets in a row, a HardFault's
+//!   registers) and the rule against a reset loop.
 //! - [`clock`]: the 64-bit microsecond clock and the sensor's sample clock.
 //! - [`icm42688`]: the IMU driver, generic over `embedded_hal::spi::SpiDevice`.
 //! - [`replay`]: the sensors' stand-in for the QEMU build.
@@ -42,6 +44,7 @@ pub mod navigation;
 pub mod queue;
 pub mod record;
 pub mod replay;
+pub mod resets;
 pub mod tasks;
 pub mod tuning;
 pub mod watchdog;

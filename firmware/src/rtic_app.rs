@@ -61,6 +61,7 @@ mod app {
         let mut core = cx.core;
         let dp = cx.device;
         let reset = hw::reset_cause(&dp.RCC);
+        let resets = hw::reset_verdict(reset);
         hw::freeze_for_debugger(&dp.DBGMCU);
         hw::start_cycle_counter(&mut core.DCB, &mut core.DWT, core.SYST);
         let board = hw::Board::new(dp);
@@ -76,6 +77,7 @@ mod app {
             reset,
             imu: board.imu_status,
             tuning: hw::tuning(),
+            resets,
         };
         let program = self::boot(cx.local.program, cx.local.queues, journal, boot);
         let Program {
@@ -84,9 +86,10 @@ mod app {
             link,
             uart,
         } = program;
+        hw::sensors_at_init(link);
         let mut wdg = board.wdg;
         wdg.start();
-        hw::enable_interrupts(board.imu_status.is_ok());
+        hw::enable_interrupts(link.sensors());
         (
             Shared {
                 usart: board.usart,
@@ -179,6 +182,9 @@ mod app {
             .local
             .link
             .run(now, cx.local.flash, cx.local.wdg, &hw::STATS);
+        if out.healthy {
+            hw::reset_healthy();
+        }
         if out.motor_off {
             cx.shared
                 .motor

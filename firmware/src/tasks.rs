@@ -29,6 +29,7 @@ use crate::link::{scheme, Link, Route};
 use crate::navigation::{BoardAided, NavCmd, NavConfig, NavMemory, Navigator, Outbound};
 use crate::queue::{Consumer, Producer, Queue};
 use crate::record::{Flash, Journal};
+use crate::resets::{BootVerdict, HEALTHY_AFTER_US};
 use crate::watchdog::{Feeder, Progress};
 use core::sync::atomic::{AtomicU32, Ordering};
 use core_nav::aided::{AidedConfig, OriginE7};
@@ -45,8 +46,13 @@ pub const OUT_Q: usize = 32;
 pub const RX_Q: usize = 1024;
 /// Bytes queued to transmit.
 pub const TX_Q: usize = 2048;
-/// No IMU sample for this long stops the motor, µs.
-pub const IMU_TIMEOUT_US: u32 = 100_000;
+/// No IMU sample for this long stops the motor and reports
+/// [`Fault::ImuTimeout`], µs: well inside the watchdog's shortest period
+/// (the IWDG's 100 ms at the LSI's typical 32 kHz is 68 ms at its 47 kHz
+/// worst, RM0090 and the STM32F405 datasheet), so the fault is told and
+/// the motor off before the watchdog resets a board whose tick stopped;
+/// the link task sees it within one of its 10 ms periods.
+pub const IMU_TIMEOUT_US: u32 = 20_000;
 /// Health telemetry every this long, µs.
 pub const HEALTH_EVERY_US: u64 = 1_000_000;
 
@@ -268,6 +274,9 @@ pub struct Boot {
     pub imu: Result<(), Fault>,
     /// The compiled-in tuning.
     pub tuning: Tuning,
+    /// The reset log's word on this boot (`crate::resets`): resets in a
+    /// row, a HardFault's registers, safe mode.
+    pub resets: BootVerdict,
 }
 
 impl<'a> Program<'a> {
@@ -304,6 +313,13 @@ impl<'a> Program<'a> {
         let (tick_out_p, tick_out_c) = queues.tick_out.split();
         let (nav_out_p, nav_out_c) = queues.nav_out.split();
         let (rx_p, rx_c) = queues.rx.split();
+        // Safe mode: a board that reset itself too often in a row boots
+        // as one whose IMU did not answer: stopped, no tick, the link up.
+        let imu = if boot.resets.safe_mode {
+            Err(Fault::ResetLoop)
+        } else {
+            boot.imu
+        };
         let mem = NavMemory {
             ws: &mut queues.ws,
             aided: &mut queues.aided,
@@ -326,21 +342,37 @@ impl<'a> Program<'a> {
             to_tick: link_ctl_p,
             to_nav: nav_cmd_p,
             feeder: Feeder::default(),
-            sensors: boot.imu.is_ok(),
+            sensors: imu.is_ok(),
+            sensors_from: imu.is_ok().then_some(boot.now_us),
+            last_run_us: boot.now_us,
+            healthy_told: false,
             clock_start: boot.now_us,
             last_health: None,
             timed_out: false,
             reset: boot.reset,
             tuning: t,
-            boot_reports: [None; 3],
+            boot_reports: [None; 5],
             counted: [(0, None); COUNTED.len()],
         };
+        let r = boot.resets;
         link.boot_reports = [
+            Some(Telemetry::Boot {
+                reset: boot.reset,
+                resets_in_row: r.in_row,
+                resets_total: r.total,
+                safe_mode: u8::from(r.safe_mode),
+                fault_regs: r.fault.unwrap_or_default().words(),
+            }),
             Some(link.link.config_report()),
             navigator.stored_report(),
             None,
+            r.fault.map(|_| Telemetry::Fault {
+                t_us: boot.now_us,
+                fault: Fault::HardFault,
+                count: 1,
+            }),
         ];
-        if let Err(f) = boot.imu {
+        if let Err(f) = imu {
             // No IMU: the board stays stopped, reports, and runs no tick.
             let mut sink = |_o: Outbound| {};
             navigator.input(
@@ -357,11 +389,13 @@ impl<'a> Program<'a> {
                 &mut sink,
                 &mut |_c| {},
             );
-            link.boot_reports[2] = Some(Telemetry::Fault {
-                t_us: boot.now_us,
-                fault: f,
-                count: 1,
-            });
+            if let Some(slot) = link.boot_reports.get_mut(3) {
+                *slot = Some(Telemetry::Fault {
+                    t_us: boot.now_us,
+                    fault: f,
+                    count: if f == Fault::ResetLoop { r.in_row } else { 1 },
+                });
+            }
         }
         Ok(slot.write(Self {
             tick: TickTask {
@@ -499,6 +533,9 @@ pub struct LinkOut {
     pub tx_pending: bool,
     /// The IMU is silent: the motor off now.
     pub motor_off: bool,
+    /// The board has run healthily for [`HEALTHY_AFTER_US`] (once): the
+    /// reset log's row of resets is over (`crate::resets`).
+    pub healthy: bool,
 }
 
 /// The link, the flash journal, supervision and the watchdog (priority 1).
@@ -515,12 +552,17 @@ pub struct LinkTask<'a> {
     to_nav: Producer<'a, NavCmd, CMD_Q>,
     feeder: Feeder,
     sensors: bool,
+    /// Since when the IMU's data-ready edges are expected, µs (`None`
+    /// while the QEMU harness has not powered its sensors).
+    sensors_from: Option<u64>,
+    last_run_us: u64,
+    healthy_told: bool,
     clock_start: u64,
     last_health: Option<u64>,
     timed_out: bool,
     reset: ResetCause,
     tuning: Tuning,
-    boot_reports: [Option<Telemetry>; 3],
+    boot_reports: [Option<Telemetry>; 5],
     /// What the counters below were when each was last reported.
     counted: [(u32, Option<u64>); COUNTED.len()],
 }
@@ -545,6 +587,25 @@ impl LinkTask<'_> {
         self.link.commands
     }
 
+    /// Whether the board runs its sensors (an IMU that answered, not safe
+    /// mode): only then is the data-ready interrupt unmasked.
+    pub fn sensors(&self) -> bool {
+        self.sensors
+    }
+
+    /// The IMU's edges are not expected yet (the QEMU harness powers its
+    /// sensors when the host's configuration has come).
+    pub fn sensors_later(&mut self) {
+        self.sensors_from = None;
+    }
+
+    /// The IMU's edges are expected from now on.
+    pub fn sensors_started(&mut self) {
+        if self.sensors && self.sensors_from.is_none() {
+            self.sensors_from = Some(self.last_run_us);
+        }
+    }
+
     /// One run (every 10 ms).
     pub fn run(
         &mut self,
@@ -554,6 +615,7 @@ impl LinkTask<'_> {
         stats: &Stats,
     ) -> LinkOut {
         stats.progress.link.fetch_add(1, Ordering::Relaxed);
+        self.last_run_us = mcu_us;
         let mut o = LinkOut::default();
         for t in self.boot_reports.iter_mut().filter_map(Option::take) {
             send(&mut self.link, &mut self.tx, &t);
@@ -583,6 +645,11 @@ impl LinkTask<'_> {
         }
         if self.feeder.check(&stats.progress, self.sensors) {
             wdg.feed();
+            let up = mcu_us.saturating_sub(self.clock_start) >= HEALTHY_AFTER_US;
+            if up && self.sensors && !self.timed_out && !self.healthy_told {
+                self.healthy_told = true;
+                o.healthy = true;
+            }
         }
         o.tx_pending = !self.tx.is_empty();
         o
@@ -678,14 +745,20 @@ impl LinkTask<'_> {
         send(&mut self.link, &mut self.tx, &t);
     }
 
-    /// The IMU silent for [`IMU_TIMEOUT_US`] while the board runs: the
-    /// motor off (the caller), the tick told (it stops the scheme when
-    /// samples come back) and the fault reported, once.
+    /// The IMU silent for [`IMU_TIMEOUT_US`] while the board runs, or
+    /// since its edges were expected when none has come (a data-ready
+    /// line dead from power-up): the motor off (the caller), the tick told
+    /// (it stops the scheme when samples come back) and the fault
+    /// reported, once.
     fn supervise(&mut self, mcu_us: u64, stats: &Stats) -> bool {
-        if !self.sensors || stats.samples.load(Ordering::Relaxed) == 0 {
+        let Some(from) = self.sensors_from.filter(|_| self.sensors) else {
             return false;
-        }
-        let last = stats.last_sample_us.load(Ordering::Relaxed);
+        };
+        let last = if stats.samples.load(Ordering::Relaxed) == 0 {
+            from as u32
+        } else {
+            stats.last_sample_us.load(Ordering::Relaxed)
+        };
         // Signed: a tick that preempted this task since it read the clock
         // stored a later time than `mcu_us`.
         let silent = (mcu_us as u32).wrapping_sub(last) as i32 > IMU_TIMEOUT_US as i32;

@@ -106,12 +106,19 @@ codes! {
         /// The IMU did not answer at power-up (bus failure; safe state:
         /// stopped, reported).
         ImuInitFailed = 20,
+        /// The board reset itself (watchdog, fault) this many times in a
+        /// row without a healthy run between: it booted into safe mode
+        /// (motor off, no tick, the link up) instead of trying again.
+        ResetLoop = 21,
+        /// The last reset came from a HardFault: its registers are in the
+        /// boot report (`Telemetry::Boot`).
+        HardFault = 22,
     }
     unknown => FrameError::UnknownCode
 }
 
 /// How many kinds of fault there are.
-pub const FAULT_KINDS: usize = 20;
+pub const FAULT_KINDS: usize = 22;
 
 codes! {
     /// The answer to a command (telemetry `Ack`): accepted, or why not.

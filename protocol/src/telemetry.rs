@@ -121,6 +121,23 @@ messages! {
             /// The aided origin's longitude, 1e-7 deg.
             lon_e7: i32,
         },
+        /// Once, at boot: why the board reset, how many resets came in a
+        /// row without a healthy run between and in all since power-on,
+        /// whether it booted into safe mode, and the registers a HardFault
+        /// left (all 0 when the last reset was not one).
+        Boot = 10 {
+            /// Why the board reset.
+            reset: ResetCause,
+            /// Watchdog and fault resets in a row (0 after a healthy run,
+            /// a power-on or the reset pin).
+            resets_in_row: u32,
+            /// Resets since power-on.
+            resets_total: u32,
+            /// 1: safe mode (motor off, no tick, the link up).
+            safe_mode: u8,
+            /// A HardFault's CFSR, HFSR, MMFAR, BFAR, stacked PC and LR.
+            fault_regs: [u32; 6],
+        },
     }
 }
 

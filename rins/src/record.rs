@@ -35,6 +35,24 @@ pub struct Decoded {
     pub health: Vec<Health>,
     /// The configuration frames the board sent.
     pub configs: Vec<Telemetry>,
+    /// The boot reports, one per boot: why the board reset, the resets in
+    /// a row and in all, safe mode, a HardFault's registers.
+    pub boots: Vec<BootReport>,
+}
+
+/// One `Boot` frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BootReport {
+    /// Why the board reset.
+    pub reset: protocol::ResetCause,
+    /// Watchdog and fault resets in a row.
+    pub in_row: u32,
+    /// Resets since power-on.
+    pub total: u32,
+    /// It booted into safe mode.
+    pub safe_mode: bool,
+    /// A HardFault's CFSR, HFSR, MMFAR, BFAR, PC and LR (all 0: none).
+    pub fault_regs: [u32; 6],
 }
 
 /// One `Health` frame.
@@ -159,6 +177,19 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 rx: (rx_bytes, rx_lost),
             }),
             c @ Telemetry::Config { .. } => r.configs.push(c),
+            Telemetry::Boot {
+                reset,
+                resets_in_row,
+                resets_total,
+                safe_mode,
+                fault_regs,
+            } => r.boots.push(BootReport {
+                reset,
+                in_row: resets_in_row,
+                total: resets_total,
+                safe_mode: safe_mode != 0,
+                fault_regs,
+            }),
         }
     }
     r.stats = d.stats;
@@ -177,6 +208,12 @@ pub fn link_json(d: &Decoded) -> serde_json::Value {
             "reset": format!("{:?}", h.reset), "tick_worst_cycles": h.tick.0, "tick_overruns": h.tick.1,
             "nav_worst_cycles": h.nav.0, "nav_overruns": h.nav.1, "samples_dropped": h.samples.0,
             "samples_duplicated": h.samples.1, "rx_bytes": h.rx.0, "rx_lost": h.rx.1})),
+        "boots": d.boots.iter().map(|b| serde_json::json!({
+            "reset": format!("{:?}", b.reset), "resets_in_row": b.in_row,
+            "resets_total": b.total, "safe_mode": b.safe_mode,
+            "hard_fault": (b.fault_regs != [0; 6]).then(|| serde_json::json!({
+                "cfsr": b.fault_regs[0], "hfsr": b.fault_regs[1], "mmfar": b.fault_regs[2],
+                "bfar": b.fault_regs[3], "pc": b.fault_regs[4], "lr": b.fault_regs[5]}))})).collect::<Vec<_>>(),
     })
 }
 
@@ -229,7 +266,7 @@ pub fn calibration_json(d: &Decoded, axis: core_nav::table::Axis) -> Option<serd
 /// A one-line account of the link.
 pub fn link_report(d: &Decoded) -> String {
     let s = &d.stats;
-    format!(
+    let mut out = format!(
         "{} frames: {} IMU samples, {} encoder reads, {} nav states, {} faults; lost {}, corrupt {}, overflowing {}, out of order {}",
         s.frames,
         d.recording.imu.len(),
@@ -240,5 +277,28 @@ pub fn link_report(d: &Decoded) -> String {
         s.corrupt,
         s.overflow,
         d.out_of_order
-    )
+    );
+    for b in &d.boots {
+        out.push_str(&boot_line(b));
+    }
+    out
+}
+
+/// A boot report as a line of its own: the cause, the resets in a row,
+/// safe mode and a HardFault's registers.
+fn boot_line(b: &BootReport) -> String {
+    let mut l = format!(
+        "\nboot: reset {:?}, {} in a row, {} since power-on",
+        b.reset, b.in_row, b.total
+    );
+    if b.safe_mode {
+        l.push_str(": SAFE MODE (motor off, no tick: the board reset itself too often in a row; power-cycle or press reset once the cause is fixed)");
+    }
+    if b.fault_regs != [0; 6] {
+        let [cfsr, hfsr, mmfar, bfar, pc, lr] = b.fault_regs;
+        l.push_str(&format!(
+            "\n  after a HardFault: CFSR {cfsr:#010x} HFSR {hfsr:#010x} MMFAR {mmfar:#010x} BFAR {bfar:#010x} PC {pc:#010x} LR {lr:#010x}"
+        ));
+    }
+    l
 }

@@ -129,16 +129,36 @@ pub struct HostBoard {
     pub sent: Vec<u8>,
     /// The link task's last word on the motor: off (the IMU silent).
     pub motor_off: bool,
+    /// The link task said the board ran healthily (the reset log's row
+    /// is over).
+    pub healthy: bool,
     seq: u16,
 }
 
 impl HostBoard {
-    /// The board booting at MCU time `now_us` on `flash`.
+    /// The board booting at MCU time `now_us` on `flash` after a
+    /// power-on.
     pub fn new(
+        tuning: Tuning,
+        flash: NorFlash,
+        now_us: u64,
+        imu_ok: Result<(), firmware::faults::Fault>,
+    ) -> Self {
+        let resets = firmware::resets::BootVerdict {
+            cause: protocol::ResetCause::PowerOn,
+            ..Default::default()
+        };
+        Self::boot(tuning, flash, now_us, imu_ok, resets)
+    }
+
+    /// The board booting at MCU time `now_us` on `flash` with the reset
+    /// log's verdict `resets` (its cause the reset's).
+    pub fn boot(
         tuning: Tuning,
         mut flash: NorFlash,
         now_us: u64,
         imu_ok: Result<(), firmware::faults::Fault>,
+        resets: firmware::resets::BootVerdict,
     ) -> Self {
         let queues: &'static mut Queues = Box::leak(Box::new(Queues::new()));
         let stats: &'static Stats = Box::leak(Box::default());
@@ -151,9 +171,10 @@ impl HostBoard {
             journal,
             Boot {
                 now_us,
-                reset: protocol::ResetCause::PowerOn,
+                reset: resets.cause,
                 imu: imu_ok,
                 tuning,
+                resets,
             },
         )
         .expect("the tuning's scheme is within the limits");
@@ -166,6 +187,7 @@ impl HostBoard {
             next_link_us: now_us,
             sent: vec![],
             motor_off: false,
+            healthy: false,
             seq: 0,
         }
     }
@@ -194,6 +216,7 @@ impl HostBoard {
                     .link
                     .run(self.mcu_us, &mut self.flash, &mut self.wdg, self.stats);
             self.motor_off = out.motor_off;
+            self.healthy |= out.healthy;
             while let Some(b) = self.program.uart.next_tx() {
                 self.sent.push(b);
             }

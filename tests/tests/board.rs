@@ -1,7 +1,8 @@
 //! The board's parts that QEMU 7.2 does not model, behind their traits on
 //! the host: the flash journal under power cuts at every step, the
-//! watchdog's progress rule over the whole program, and the compiled-in
-//! filter tuning against the sensor profile it comes from.
+//! watchdog's progress rule over the whole program, resets in a row and
+//! the safe mode they end in, a HardFault's registers after the reset, and
+//! the compiled-in filter tuning against the sensor profile it comes from.
 
 use firmware::record::{Flash, Journal};
 use protocol::record::{BoardConfig, StoredCalibration};
@@ -199,6 +200,9 @@ fn overruns_and_losses_are_reported_as_faults_at_a_bounded_rate() {
     use std::sync::atomic::Ordering::Relaxed;
     let t = firmware::tuning::board();
     let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
+    // Its sensors not powered yet (as the QEMU harness does): no IMU
+    // timeout among the faults counted here.
+    b.program.link.sensors_later();
     b.idle(20_000);
     assert!(faults_sent(&b.sent).is_empty());
     // Three tick overruns and a lost byte: reported at the next link run,
@@ -220,4 +224,193 @@ fn overruns_and_losses_are_reported_as_faults_at_a_bounded_rate() {
     let f = faults_sent(&b.sent);
     assert_eq!(f.len(), 3);
     assert_eq!(f[2], (protocol::Fault::TickOverrun, 53));
+}
+
+/// Every frame the board sent, decoded.
+fn telemetry_sent(bytes: &[u8]) -> Vec<protocol::Telemetry> {
+    let mut d = protocol::Decoder::default();
+    let mut out = [0u8; protocol::MAX_PAYLOAD + 2];
+    let mut got = vec![];
+    for b in bytes {
+        if let Some(n) = d.push(*b, &mut out) {
+            if let Ok((_, t)) = protocol::Telemetry::decode(&out[..n]) {
+                got.push(t);
+            }
+        }
+    }
+    got
+}
+
+/// The IWDG's shortest period: 100 ms at the LSI's typical 32 kHz is
+/// 100 * 32 / 47 ms at its 47 kHz worst (STM32F405 datasheet, LSI
+/// 17-47 kHz), µs.
+const IWDG_SHORTEST_US: u64 = 100_000 * 32 / 47;
+
+/// Runs a booted board with its IMU silent for up to `span_us`, the
+/// watchdog at its shortest period: `Some(t)` when it would reset at `t`.
+fn until_watchdog(b: &mut HostBoard, span_us: u64) -> Option<u64> {
+    let mut fed_at = b.mcu_us;
+    let mut feeds = b.wdg.feeds;
+    while b.mcu_us < span_us {
+        b.idle(1_000);
+        if b.wdg.feeds != feeds {
+            (feeds, fed_at) = (b.wdg.feeds, b.mcu_us);
+        }
+        if b.mcu_us - fed_at > IWDG_SHORTEST_US {
+            return Some(b.mcu_us);
+        }
+    }
+    None
+}
+
+#[test]
+fn a_dead_data_ready_line_ends_in_safe_mode_not_a_reset_loop() {
+    use firmware::resets::{ResetLog, SAFE_AFTER};
+    use protocol::{Fault, ResetCause, Telemetry};
+    let t = firmware::tuning::board();
+    // The IMU answers at init (WHO_AM_I) but its data-ready line is dead.
+    let mut log = ResetLog::default();
+    let mut verdict = log.boot(ResetCause::PowerOn);
+    let mut resets = 0;
+    let board = loop {
+        let mut b = HostBoard::boot(t, NorFlash::new(4096), 0, Ok(()), verdict);
+        match until_watchdog(&mut b, 2_000_000) {
+            Some(at) => {
+                // The fault is told and the motor off before the reset.
+                let f = faults_sent(&b.sent);
+                assert!(
+                    f.iter().any(|x| x.0 == Fault::ImuTimeout),
+                    "{f:?} before the reset at {at} us"
+                );
+                assert!(b.motor_off);
+                resets += 1;
+                assert!(resets <= SAFE_AFTER, "a reset loop");
+                verdict = log.boot(ResetCause::IndependentWatchdog);
+            }
+            None => break b,
+        }
+    };
+    assert_eq!(resets, SAFE_AFTER);
+    let sent = telemetry_sent(&board.sent);
+    assert!(
+        sent.iter().any(|x| matches!(x, Telemetry::Boot { reset: ResetCause::IndependentWatchdog, resets_in_row, safe_mode: 1, .. } if *resets_in_row == SAFE_AFTER)),
+        "{sent:?}"
+    );
+    assert!(faults_sent(&board.sent).contains(&(Fault::ResetLoop, SAFE_AFTER)));
+    assert!(!board.program.link.sensors());
+    // Safe mode holds: the link alone keeps it fed for a minute.
+    let mut b = board;
+    assert_eq!(until_watchdog(&mut b, 60_000_000), None);
+}
+
+/// A still IMU with a little noise (so no "stuck" sensor), a still table.
+struct StillSensors(u32);
+impl firmware::tasks::Imu for StillSensors {
+    fn read(
+        &mut self,
+    ) -> Result<
+        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
+        firmware::tasks::BusError,
+    > {
+        self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        let n = ((self.0 >> 16) as f32 / 65_536.0 - 0.5) * 1e-3;
+        let s = firmware::icm42688::Sample {
+            gyro_radps: [n, -n, 0.5 * n],
+            accel_mps2: [n, 0.5 * n, -9.806_65 + n],
+            temp_c: 25.0,
+        };
+        let lsb = (self.0 >> 28) as i16;
+        let raw = firmware::icm42688::RawSample {
+            temp_lsb: 0,
+            accel_lsb: [lsb, -lsb, -2048 + lsb],
+            gyro_lsb: [lsb, lsb, -lsb],
+        };
+        Ok(Some((raw, s)))
+    }
+}
+impl firmware::tasks::Encoder for StillSensors {
+    fn count(&mut self) -> u16 {
+        0
+    }
+}
+impl firmware::tasks::Motor for StillSensors {
+    fn set(&mut self, _: f32) {}
+}
+
+#[test]
+fn a_healthy_run_after_resets_ends_the_row() {
+    use firmware::resets::{ResetLog, HEALTHY_AFTER_US};
+    use protocol::ResetCause;
+    let t = firmware::tuning::board();
+    let mut log = ResetLog::default();
+    log.boot(ResetCause::PowerOn);
+    log.boot(ResetCause::IndependentWatchdog);
+    let verdict = log.boot(ResetCause::IndependentWatchdog);
+    assert_eq!(verdict.in_row, 2);
+    // Every task making progress: healthy once the span has passed, and
+    // not before.
+    let mut b = HostBoard::boot(t, NorFlash::new(4096), 0, Ok(()), verdict);
+    let (mut imu, mut enc, mut motor) = (StillSensors(1), StillSensors(0), StillSensors(0));
+    let mut healthy_at = None;
+    for k in 1..=(HEALTHY_AFTER_US / 1_000 + 100) {
+        b.edge(k * 1_000, &mut imu, &mut enc, &mut motor);
+        if b.healthy && healthy_at.is_none() {
+            healthy_at = Some(k * 1_000);
+        }
+    }
+    let at = healthy_at.unwrap_or_else(|| {
+        panic!(
+            "not healthy: {} feeds, {:?}",
+            b.wdg.feeds,
+            faults_sent(&b.sent)
+        )
+    });
+    assert!(
+        (HEALTHY_AFTER_US..HEALTHY_AFTER_US + 20_000).contains(&at),
+        "{at}"
+    );
+    log.healthy();
+    assert_eq!(log.boot(ResetCause::IndependentWatchdog).in_row, 1);
+    // A board without its IMU is never healthy: its row stands.
+    let mut s = HostBoard::boot(
+        t,
+        NorFlash::new(4096),
+        0,
+        Err(protocol::Fault::ImuInitFailed),
+        verdict,
+    );
+    s.idle(HEALTHY_AFTER_US + 20_000);
+    assert!(!s.healthy);
+}
+
+#[test]
+fn a_hard_faults_registers_are_reported_after_the_reset() {
+    use firmware::resets::{FaultRegs, ResetLog};
+    use protocol::{Fault, ResetCause, Telemetry};
+    let t = firmware::tuning::board();
+    let mut log = ResetLog::default();
+    log.boot(ResetCause::PowerOn);
+    // What the handler stores (a precise bus fault at BFAR, its PC).
+    let regs = FaultRegs {
+        cfsr: 0x0000_8200,
+        hfsr: 0x4000_0000,
+        mmfar: 0xE000_EDF4,
+        bfar: 0x4001_3C00,
+        pc: 0x0800_2F1A,
+        lr: 0x0800_2E07,
+    };
+    log.hard_fault(regs);
+    let verdict = log.boot(ResetCause::Software);
+    let mut b = HostBoard::boot(t, NorFlash::new(4096), 0, Ok(()), verdict);
+    b.program.link.sensors_later();
+    b.idle(20_000);
+    let sent = telemetry_sent(&b.sent);
+    assert!(
+        sent.iter().any(|x| matches!(x, Telemetry::Boot { reset: ResetCause::Software, fault_regs, resets_in_row: 1, safe_mode: 0, .. } if *fault_regs == regs.words())),
+        "{sent:?}"
+    );
+    assert!(faults_sent(&b.sent).contains(&(Fault::HardFault, 1)));
+    // Told once: the next boot (a person's reset) has no fault.
+    let v = log.boot(ResetCause::Pin);
+    assert_eq!((v.fault, v.in_row), (None, 0));
 }
