@@ -299,9 +299,13 @@ pub struct AidedCounts {
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AidedStep<T: Real> {
-    /// A fix was processed at this sample: its NIS (position and velocity
-    /// components summed) and the components used.
+    /// A fix was processed at this sample: its position update's NIS and
+    /// the components used.
     pub fix: Option<(T, u8)>,
+    /// The velocity update of the fix processed at the sample before: its
+    /// NIS and components used (a fix's two updates take two samples: see
+    /// [`AidedNav::step`]).
+    pub fix_velocity: Option<(T, u8)>,
     /// The detector said still (evaluated every [`ZUPT_EVERY`] samples; the
     /// last verdict).
     pub still: bool,
@@ -344,6 +348,17 @@ pub struct AidedNav<T: Real> {
     /// zeros, and a board's blank static belongs in `.bss`).
     pending: Option<GnssFix>,
     pending_at: Option<u64>,
+    /// The last fix's velocity update, for the next sample: its
+    /// innovation less the velocity its position update corrected (m/s,
+    /// `n`), its 1-sigma (m/s), and whether one waits.
+    vel_next_z: Vector3<T>,
+    vel_next_sigma: Vector3<T>,
+    vel_next: bool,
+    /// A zero-velocity update waits for the next sample (decided with a
+    /// zero-rotation update, made a sample after it: its measurement, the
+    /// velocity then, is fresh; the zero-rotation's window mean would not
+    /// be after a correction of the gyro bias).
+    zupt_next: bool,
     /// The fixes the gate refused in a row (the last [`REINIT_FIXES`]).
     refused_fixes: [RefusedFix<T>; REINIT_FIXES],
     refused_run: usize,
@@ -538,6 +553,10 @@ impl AidedNav<f32> {
         zaru_at: 0,
         pending: None,
         pending_at: None,
+        vel_next_z: Vector3::new(0.0, 0.0, 0.0),
+        vel_next_sigma: Vector3::new(0.0, 0.0, 0.0),
+        vel_next: false,
+        zupt_next: false,
         refused_fixes: [RefusedFix::BLANK; REINIT_FIXES],
         refused_run: 0,
         past: [Past::BLANK; HISTORY],
@@ -618,6 +637,10 @@ impl<T: Real> AidedNav<T> {
             zaru_at: 0,
             pending: None,
             pending_at: None,
+            vel_next_z: Vector3::zeros(),
+            vel_next_sigma: Vector3::zeros(),
+            vel_next: false,
+            zupt_next: false,
             refused_fixes: [RefusedFix::default(); REINIT_FIXES],
             refused_run: 0,
             past: [Past::default(); HISTORY],
@@ -663,6 +686,8 @@ impl<T: Real> AidedNav<T> {
         self.evals = 0;
         self.pending = None;
         self.pending_at = None;
+        self.vel_next = false;
+        self.zupt_next = false;
         self.refused_fixes.fill(RefusedFix::default());
         self.refused_run = 0;
         self.past.fill(Past::default());
@@ -859,10 +884,25 @@ impl<T: Real> AidedNav<T> {
 
         let mut out = AidedStep::default();
         let mut corrected = false;
-        if let Some(fix) = self.pending.take() {
+        let mut vel_set = false;
+        if self.vel_next {
+            // The last fix's velocity, one sample after its position: the
+            // two updates of one fix never share a sample with each other
+            // (each is a propagation and three scalar updates; together
+            // they made a board's worst sample). A new fix waits a sample.
+            out.fix_velocity = self.velocity_next(ws.as_deref_mut());
+            corrected = true;
+        } else if self.zupt_next {
+            // Likewise the zero-velocity update decided with the last
+            // zero-rotation update.
+            self.zupt_next = false;
+            out.zupt = self.zero_velocity(&st.v_n, dt, ws.as_deref_mut());
+            corrected = true;
+        } else if let Some(fix) = self.pending.take() {
             let at = self.pending_at.take();
             let then = at.and_then(|t| self.past_at(t)).unwrap_or(here);
             out.fix = Some(self.use_fix(&fix, &then, ws.as_deref_mut()));
+            vel_set = self.vel_next;
             corrected = true;
         }
         // Not in a step that took a fix: its velocity update measured the
@@ -875,16 +915,6 @@ impl<T: Real> AidedNav<T> {
             self.zupt_due = false;
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
             if self.still && self.evals > ZUPT_START_EVALS {
-                let z = -st.v_n;
-                let sigma = Vector3::repeat(self.zupt_sigma(dt));
-                if self
-                    .kf
-                    .update_velocity_opt(&z, &sigma, ws.as_deref_mut())
-                    .is_ok()
-                {
-                    self.counts.zupts = self.counts.zupts.saturating_add(1);
-                    out.zupt = true;
-                }
                 if self.steps.wrapping_sub(self.zaru_at) >= ZUPT_WINDOW as u32 {
                     self.zaru_at = self.steps;
                     let w_ie_s = c_s_n.transpose() * w_ie;
@@ -892,6 +922,9 @@ impl<T: Real> AidedNav<T> {
                         self.counts.zarus = self.counts.zarus.saturating_add(1);
                         out.zaru = true;
                     }
+                    self.zupt_next = true;
+                } else {
+                    out.zupt = self.zero_velocity(&st.v_n, dt, ws);
                 }
                 corrected = true;
             }
@@ -899,11 +932,41 @@ impl<T: Real> AidedNav<T> {
         out.still = self.still;
         if corrected {
             let (dp, dv, phi) = self.kf.take_correction();
+            // The velocity update waiting for the next sample measures
+            // against the state before this correction: what the position
+            // update changed is taken out of its innovation (sequential
+            // updates, the error state closed-loop in between).
+            if vel_set {
+                self.vel_next_z -= dv;
+            }
             if self.nav.correct(&dp, &dv, &phi).is_err() {
                 self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
             }
         }
         Ok(out)
+    }
+
+    /// A zero-velocity update against the velocity `v_n` (m/s, `n`) over a
+    /// sample interval `dt` (s); whether it was made.
+    #[inline(never)]
+    fn zero_velocity(&mut self, v_n: &Vector3<T>, dt: T, ws: Option<&mut Workspace<T>>) -> bool {
+        let sigma = Vector3::repeat(self.zupt_sigma(dt));
+        let ok = self.kf.update_velocity_opt(&(-v_n), &sigma, ws).is_ok();
+        if ok {
+            self.counts.zupts = self.counts.zupts.saturating_add(1);
+        }
+        ok
+    }
+
+    /// The last fix's velocity update, waiting since the sample before:
+    /// its NIS and components used.
+    #[inline(never)]
+    fn velocity_next(&mut self, ws: Option<&mut Workspace<T>>) -> Option<(T, u8)> {
+        self.vel_next = false;
+        let r = self
+            .kf
+            .update_velocity_opt(&self.vel_next_z, &self.vel_next_sigma, ws);
+        r.ok().map(|r| (r.nis, r.used))
     }
 
     /// Position and velocity updates from `fix` against the state `at` its
@@ -943,9 +1006,10 @@ impl<T: Real> AidedNav<T> {
         let refused = matches!(rp, Ok(r) if r.rejected > 0);
         add(rp);
         if fix.has_velocity() {
-            add(self.kf.update_velocity_opt(&zv, &sv, ws));
+            (self.vel_next_z, self.vel_next_sigma, self.vel_next) = (zv, sv, true);
         }
-        if used > 0 {
+        let _ = ws;
+        if used > 0 || self.vel_next {
             self.counts.fixes_used = self.counts.fixes_used.saturating_add(1);
         }
         let sigma_h = T::lit(f64::from(fix.sigma_h_mm) * 1e-3);
@@ -970,6 +1034,8 @@ impl<T: Real> AidedNav<T> {
                 ),
             };
             self.kf.reinit_position_velocity(&zp, &zv, &sp_all, sv);
+            // The re-initialisation took the fix's velocity.
+            self.vel_next = false;
             self.counts.reinits = self.counts.reinits.saturating_add(1);
             self.refused_run = 0;
         }
@@ -1029,6 +1095,7 @@ impl<T: Real> AidedNav<T> {
     /// 1-sigma the mean's own (the window's scatter over `sqrt(W)`: a
     /// shaking base's), the white noise's, the table rate's along its axis
     /// and [`ZARU_FLOOR_RADPS`], in quadrature.
+    #[inline(never)]
     fn zero_rotation(
         &mut self,
         w_ie_s: &Vector3<T>,

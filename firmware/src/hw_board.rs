@@ -369,6 +369,9 @@ pub fn after_link(_: &mut firmware::tasks::LinkTask<'static>) {
         // Read before the log takes its critical section: the scan of the
         // stack is long, the masked log frame must stay short (the UART).
         let peak = stack_peak();
+        STATS
+            .stack_bytes
+            .store(peak, core::sync::atomic::Ordering::Relaxed);
         defmt::info!("stack peak: {=u32} bytes", peak);
     }
 }

@@ -27,6 +27,8 @@ pub static STATS: Stats = Stats {
     out_lost: core::sync::atomic::AtomicU32::new(0),
     last_sample_us: core::sync::atomic::AtomicU32::new(0),
     samples: core::sync::atomic::AtomicU32::new(0),
+    init_stack_bytes: core::sync::atomic::AtomicU32::new(0),
+    stack_bytes: core::sync::atomic::AtomicU32::new(0),
 };
 
 /// The peripherals set up, as `init` hands them to the tasks: the timers
@@ -86,15 +88,15 @@ pub fn paint_stack() {
     }
 }
 
-/// The init's peak (read when idle starts), bytes.
-pub static INIT_STACK_PEAK: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
-
 /// When idle starts: keeps the init's peak (it builds the tasks' state,
 /// once, with interrupts off) and paints again, so [`stack_peak`] is the
 /// tasks' own. Safe to run while tasks preempt: a task's frames lie below
 /// idle's, and idle does not run while they are live.
 pub fn repaint_after_init() {
-    INIT_STACK_PEAK.store(stack_peak(), core::sync::atomic::Ordering::Relaxed);
+    // The init's peak, sent in every health frame.
+    STATS
+        .init_stack_bytes
+        .store(stack_peak(), core::sync::atomic::Ordering::Relaxed);
     paint_stack();
 }
 

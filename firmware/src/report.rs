@@ -66,7 +66,7 @@ pub fn report(nav: &mut NavTask<'static>, h: &Harness, host: Option<Outcome>, st
         "{}: stress: {} navigation runs with {} more instructions each (4 ms at QEMU's 1 ns an instruction, four tick periods): ticks {} of {} data-ready edges",
         name, h.stressed, h.stress_instructions, ticks, h.edges
     );
-    let init_stack = hw::INIT_STACK_PEAK.load(Ordering::Relaxed);
+    let init_stack = hw::STATS.init_stack_bytes.load(Ordering::Relaxed);
     let peak = stack.max(init_stack);
     hprintln!(
         "stack peak: {} bytes (init {}, the tasks {})",

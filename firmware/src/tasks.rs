@@ -120,6 +120,10 @@ pub struct Stats {
     pub last_sample_us: AtomicU32,
     /// Samples taken.
     pub samples: AtomicU32,
+    /// The stack's peak during `init`, bytes (0: not measured).
+    pub init_stack_bytes: AtomicU32,
+    /// The tasks' stack peak at its last scan, bytes (0: not yet).
+    pub stack_bytes: AtomicU32,
 }
 
 impl Stats {
@@ -786,6 +790,8 @@ impl LinkTask<'_> {
             samples_duplicated: l(&stats.duplicated),
             rx_bytes: l(&stats.rx_bytes),
             rx_lost: l(&stats.rx_lost),
+            init_stack_bytes: l(&stats.init_stack_bytes),
+            stack_bytes: l(&stats.stack_bytes),
         }
     }
 

@@ -101,6 +101,11 @@ messages! {
             rx_bytes: u32,
             /// Bytes lost on receive.
             rx_lost: u32,
+            /// The stack's peak during `init`, bytes (0: not measured).
+            init_stack_bytes: u32,
+            /// The tasks' stack peak at the last scan (once a minute),
+            /// bytes (0: not measured yet).
+            stack_bytes: u32,
         },
         /// The configuration in use (at boot and after each change).
         Config = 9 {

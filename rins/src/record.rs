@@ -70,6 +70,9 @@ pub struct Health {
     pub samples: (u32, u32),
     /// Bytes received by the board and lost.
     pub rx: (u32, u32),
+    /// The stack's peak during init and the tasks' at the last scan,
+    /// bytes (0: not measured).
+    pub stack: (u32, u32),
 }
 
 /// One `Calibration` frame.
@@ -168,6 +171,8 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 samples_duplicated,
                 rx_bytes,
                 rx_lost,
+                init_stack_bytes,
+                stack_bytes,
             } => r.health.push(Health {
                 t_us,
                 reset,
@@ -175,6 +180,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 nav: (nav_worst, nav_overruns),
                 samples: (samples_dropped, samples_duplicated),
                 rx: (rx_bytes, rx_lost),
+                stack: (init_stack_bytes, stack_bytes),
             }),
             c @ Telemetry::Config { .. } => r.configs.push(c),
             Telemetry::Boot {
@@ -207,7 +213,9 @@ pub fn link_json(d: &Decoded) -> serde_json::Value {
         "health": d.health.last().map(|h| serde_json::json!({
             "reset": format!("{:?}", h.reset), "tick_worst_cycles": h.tick.0, "tick_overruns": h.tick.1,
             "nav_worst_cycles": h.nav.0, "nav_overruns": h.nav.1, "samples_dropped": h.samples.0,
-            "samples_duplicated": h.samples.1, "rx_bytes": h.rx.0, "rx_lost": h.rx.1})),
+            "samples_duplicated": h.samples.1, "rx_bytes": h.rx.0, "rx_lost": h.rx.1,
+            "init_stack_bytes": (h.stack.0 > 0).then_some(h.stack.0),
+            "stack_bytes": (h.stack.1 > 0).then_some(h.stack.1)})),
         "boots": d.boots.iter().map(|b| serde_json::json!({
             "reset": format!("{:?}", b.reset), "resets_in_row": b.in_row,
             "resets_total": b.total, "safe_mode": b.safe_mode,
@@ -280,6 +288,22 @@ pub fn link_report(d: &Decoded) -> String {
     );
     for b in &d.boots {
         out.push_str(&boot_line(b));
+    }
+    if let Some(h) = d.health.last() {
+        let b = |x: u32| {
+            if x > 0 {
+                format!("{x} B")
+            } else {
+                "not measured".into()
+            }
+        };
+        out.push_str(&format!(
+            "\nhealth: init stack {}, tasks' stack {}, worst tick {} and nav {} (DWT cycles; instructions under QEMU)",
+            b(h.stack.0),
+            b(h.stack.1),
+            h.tick.0,
+            h.nav.0
+        ));
     }
     out
 }

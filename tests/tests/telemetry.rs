@@ -80,6 +80,22 @@ fn samples() -> Vec<Telemetry> {
             samples_duplicated: 3,
             rx_bytes: 12_248,
             rx_lost: 0,
+            init_stack_bytes: 13_652,
+            stack_bytes: 10_452,
+        },
+        Telemetry::Boot {
+            reset: ResetCause::Software,
+            resets_in_row: 2,
+            resets_total: 5,
+            safe_mode: 0,
+            fault_regs: [
+                0x8200,
+                0x4000_0000,
+                0,
+                0x2002_0000,
+                0x0800_1234,
+                0xFFFF_FFF9,
+            ],
         },
         Telemetry::Config {
             lat_e7: -339_000_000,

@@ -398,7 +398,9 @@ fn navigate_t<T: Real>(
                 Err(_) => continue,
             }
         }
-        if let Some((nis, used)) = step.fix {
+        // A fix's position and velocity updates, a sample apart: each
+        // its own NIS over its own components.
+        for (nis, used) in [step.fix, step.fix_velocity].into_iter().flatten() {
             run.nis.push((t, nis.to_f64(), used));
         }
         let st = *an.nav().state();
