@@ -12,6 +12,7 @@
 //! - [`navigation`]: strapdown and aided navigation, fixes at their epoch.
 //! - [`link`]: commands in, telemetry out ([`protocol`] on the wire).
 //! - [`record`]: the flash journal (erases only at boot).
+//! - [`store`]: what is stored and when a command is told so.
 //! - [`faults`]: counted, rate-limited fault reports.
 //! - [`watchdog`]: the watchdog's progress rule.
 //! - [`resets`]: what survives a reset (resets in a row, a HardFault's
@@ -45,6 +46,7 @@ pub mod queue;
 pub mod record;
 pub mod replay;
 pub mod resets;
+pub mod store;
 pub mod tasks;
 pub mod tuning;
 pub mod watchdog;

@@ -21,8 +21,15 @@ pub enum Route {
     Control(ControlCmd),
     /// To navigation (which acknowledges it).
     Nav(NavCmd),
-    /// The configuration changed: store it, tell navigation and the tick.
-    Config(BoardConfig),
+    /// The configuration changed: store it, tell navigation and the tick,
+    /// and acknowledge command `seq` once it is stored (or say it was
+    /// not).
+    Config {
+        /// The new configuration.
+        cfg: BoardConfig,
+        /// The command's sequence number.
+        seq: u16,
+    },
 }
 
 /// The scheme a configuration names.
@@ -97,7 +104,8 @@ impl Link {
         }
     }
 
-    /// Routes a checked command; `None` when navigation acknowledges it.
+    /// Routes a checked command; `None` when navigation acknowledges it,
+    /// or the link task once the configuration is stored.
     fn take(&mut self, seq: u16, c: Command, route: &mut impl FnMut(Route)) -> Option<Status> {
         let mut cfg = self.config;
         match c {
@@ -148,8 +156,8 @@ impl Link {
             }
         }
         self.config = cfg;
-        route(Route::Config(cfg));
-        Some(Status::Accepted)
+        route(Route::Config { cfg, seq });
+        None
     }
 
     /// The configuration as telemetry.
@@ -205,7 +213,7 @@ mod tests {
     }
 
     #[test]
-    fn a_site_sent_byte_by_byte_changes_the_configuration_and_is_acknowledged() {
+    fn a_site_sent_byte_by_byte_changes_the_configuration_and_is_routed_to_be_stored() {
         let mut l = Link::new(FACTORY, Limits::default());
         let c = Command::SetSite {
             lat_e7: -339_000_000,
@@ -213,14 +221,11 @@ mod tests {
         };
         let (routes, acks) = feed(&mut l, &frame(&c, 7));
         assert_eq!(l.config.lat_e7, -339_000_000);
-        assert!(matches!(routes.as_slice(), [Route::Config(cfg)] if cfg.height_mm == 40_000));
-        assert_eq!(
-            acks,
-            [Telemetry::Ack {
-                seq: 7,
-                status: Status::Accepted
-            }]
+        assert!(
+            matches!(routes.as_slice(), [Route::Config { cfg, seq: 7 }] if cfg.height_mm == 40_000)
         );
+        // Acknowledged by the link task once stored, not here.
+        assert!(acks.is_empty());
     }
 
     #[test]

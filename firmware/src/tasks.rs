@@ -30,6 +30,7 @@ use crate::navigation::{BoardAided, NavCmd, NavConfig, NavMemory, Navigator, Out
 use crate::queue::{Consumer, Producer, Queue};
 use crate::record::{Flash, Journal};
 use crate::resets::{BootVerdict, HEALTHY_AFTER_US};
+use crate::store::Store;
 use crate::watchdog::{Feeder, Progress};
 use core::sync::atomic::{AtomicU32, Ordering};
 use core_nav::aided::{AidedConfig, OriginE7};
@@ -338,6 +339,7 @@ impl<'a> Program<'a> {
         );
         let mut link = LinkTask {
             link: Link::new(config, t.control.limits),
+            store: Store::new(stored.and_then(|r| r.calibration)),
             journal,
             rx: rx_c,
             tx: tx_p,
@@ -357,6 +359,7 @@ impl<'a> Program<'a> {
             tuning: t,
             boot_reports: [None; 5],
             counted: [(0, None); COUNTED.len()],
+            refused: 0,
         };
         let r = boot.resets;
         link.boot_reports = [
@@ -548,6 +551,8 @@ pub struct LinkTask<'a> {
     pub link: Link,
     /// The flash record.
     pub journal: Journal,
+    /// What is to be stored, and the commands waiting on it.
+    store: Store,
     rx: Consumer<'a, u8, RX_Q>,
     tx: Producer<'a, u8, TX_Q>,
     from_tick: Consumer<'a, Telemetry, OUT_Q>,
@@ -567,18 +572,34 @@ pub struct LinkTask<'a> {
     reset: ResetCause,
     tuning: Tuning,
     boot_reports: [Option<Telemetry>; 5],
+    /// Commands refused as malformed or out of bounds.
+    refused: u32,
     /// What the counters below were when each was last reported.
     counted: [(u32, Option<u64>); COUNTED.len()],
 }
 
 /// The counters the tasks keep (no task may wait to send a report) and
 /// the faults the link reports them as.
-const COUNTED: [Fault; 3] = [Fault::TickOverrun, Fault::RxLost, Fault::TelemetryOverflow];
+const COUNTED: [Fault; 4] = [
+    Fault::TickOverrun,
+    Fault::RxLost,
+    Fault::TelemetryOverflow,
+    Fault::BadCommand,
+];
 
-fn counter(stats: &Stats, f: Fault) -> u32 {
+/// Counter `f`'s total: the tasks' (`stats`), or for
+/// [`Fault::BadCommand`] the commands refused (`refused`, each also
+/// answered with its reason) and the frames that arrived corrupt or
+/// oversize (`link`'s decoder: no command to answer).
+fn counter(stats: &Stats, link: &Link, refused: u32, f: Fault) -> u32 {
     let a = match f {
         Fault::TickOverrun => &stats.tick_overruns,
         Fault::RxLost => &stats.rx_lost,
+        Fault::BadCommand => {
+            let s = link.rx_stats();
+            let frames = u32::try_from(s.corrupt.saturating_add(s.overflow)).unwrap_or(u32::MAX);
+            return frames.saturating_add(refused);
+        }
         _ => &stats.out_lost,
     };
     a.load(Ordering::Relaxed)
@@ -624,17 +645,23 @@ impl LinkTask<'_> {
         for t in self.boot_reports.iter_mut().filter_map(Option::take) {
             send(&mut self.link, &mut self.tx, &t);
         }
-        self.receive(mcu_us, stats);
+        self.receive(stats);
         while let Some(t) = self.from_tick.dequeue() {
             send(&mut self.link, &mut self.tx, &t);
         }
         while let Some(x) = self.from_nav.dequeue() {
             match x {
                 Outbound::Telemetry(t) => send(&mut self.link, &mut self.tx, &t),
-                Outbound::Store(c) => self.store(mcu_us, Some(c), stats),
+                Outbound::Store(c) => self.store.calibration(c),
             }
         }
-        if self.journal.step(flash).is_err() {
+        let (link, tx) = (&mut self.link, &mut self.tx);
+        let stored = self
+            .store
+            .run(&mut self.journal, flash, link.config, &mut |seq, status| {
+                send(link, tx, &Telemetry::Ack { seq, status })
+            });
+        if stored.is_err() {
             self.fault(mcu_us, Fault::FlashError);
         }
         o.motor_off = self.supervise(mcu_us, stats);
@@ -659,7 +686,7 @@ impl LinkTask<'_> {
         o
     }
 
-    fn receive(&mut self, mcu_us: u64, stats: &Stats) {
+    fn receive(&mut self, stats: &Stats) {
         let mut routes: heapless::Vec<Route, 4> = heapless::Vec::new();
         while let Some(b) = self.rx.dequeue() {
             let (link, tx) = (&mut self.link, &mut self.tx);
@@ -674,16 +701,19 @@ impl LinkTask<'_> {
                 },
             );
             for a in &acks {
+                if matches!(a, Telemetry::Ack { status, .. } if is_bad(*status)) {
+                    self.refused = self.refused.saturating_add(1);
+                }
                 send(link, tx, a);
             }
             for r in routes.iter().copied() {
-                self.route(mcu_us, r, stats);
+                self.route(r, stats);
             }
             routes.clear();
         }
     }
 
-    fn route(&mut self, mcu_us: u64, r: Route, stats: &Stats) {
+    fn route(&mut self, r: Route, stats: &Stats) {
         match r {
             Route::Control(c) => {
                 if self.to_tick.enqueue(c).is_err() {
@@ -695,27 +725,24 @@ impl LinkTask<'_> {
                     stats.out_lost.fetch_add(1, Ordering::Relaxed);
                 }
             }
-            Route::Config(cfg) => {
-                let cal = self.journal.current.and_then(|r| r.calibration);
-                self.store(mcu_us, cal, stats);
-                let _ = self.to_tick.enqueue(ControlCmd::Scheme(scheme(&cfg)));
-                let _ = self
-                    .to_nav
-                    .enqueue(NavCmd::Config(nav_config(&cfg, &self.tuning)));
+            Route::Config { cfg, seq } => {
+                // Acknowledged when stored (`crate::store`); an ack that
+                // cannot wait is lost telemetry, counted.
+                let lost = u32::from(self.store.config(seq).is_err())
+                    + u32::from(
+                        self.to_tick
+                            .enqueue(ControlCmd::Scheme(scheme(&cfg)))
+                            .is_err(),
+                    )
+                    + u32::from(
+                        self.to_nav
+                            .enqueue(NavCmd::Config(nav_config(&cfg, &self.tuning)))
+                            .is_err(),
+                    );
+                stats.out_lost.fetch_add(lost, Ordering::Relaxed);
                 let t = self.link.config_report();
                 send(&mut self.link, &mut self.tx, &t);
             }
-        }
-    }
-
-    fn store(
-        &mut self,
-        mcu_us: u64,
-        cal: Option<protocol::record::StoredCalibration>,
-        _stats: &Stats,
-    ) {
-        if self.journal.write(self.link.config, cal).is_err() {
-            self.fault(mcu_us, Fault::FlashError);
         }
     }
 
@@ -724,7 +751,7 @@ impl LinkTask<'_> {
     /// total so far.
     fn report_counted(&mut self, mcu_us: u64, stats: &Stats) {
         for (f, (seen, last)) in COUNTED.iter().zip(self.counted.iter_mut()) {
-            let now = counter(stats, *f);
+            let now = counter(stats, &self.link, self.refused, *f);
             let due =
                 last.is_none_or(|t| mcu_us.saturating_sub(t) >= crate::faults::REPORT_EVERY_US);
             if now > *seen && due {
@@ -799,6 +826,13 @@ impl LinkTask<'_> {
     pub fn started_us(&self) -> u64 {
         self.clock_start
     }
+}
+
+/// A refusal of the command itself (malformed, out of bounds), not of
+/// what the board could do with a good one (not aided, not stored).
+fn is_bad(s: protocol::Status) -> bool {
+    use protocol::Status as S;
+    !matches!(s, S::Accepted | S::NotAided | S::Aided | S::NotStored)
 }
 
 fn send(link: &mut Link, tx: &mut Producer<'_, u8, TX_Q>, t: &Telemetry) {

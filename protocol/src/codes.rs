@@ -77,7 +77,9 @@ codes! {
         CalibrationRefused = 8,
         /// The navigation refused a sample (non-finite, time gap).
         NavRefused = 9,
-        /// A command was malformed or out of bounds (answered with the reason).
+        /// Commands refused as malformed or out of bounds (each also
+        /// answered with its reason) and frames that arrived corrupt or
+        /// oversize (no command to answer): the count is their total.
         BadCommand = 10,
         /// Telemetry frames dropped because an output queue was full.
         TelemetryOverflow = 11,

@@ -199,6 +199,24 @@ impl HostBoard {
         }
     }
 
+    /// The acknowledgements the board has sent so far.
+    pub fn acks(&self) -> usize {
+        let mut d = protocol::Decoder::default();
+        let mut out = [0u8; protocol::MAX_PAYLOAD + 2];
+        let mut n = 0;
+        for b in &self.sent {
+            if let Some(m) = d.push(*b, &mut out) {
+                if matches!(
+                    protocol::Telemetry::decode(&out[..m]),
+                    Ok((_, protocol::Telemetry::Ack { .. }))
+                ) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+
     /// A command arriving whole (byte by byte through the UART's queue).
     pub fn command(&mut self, c: &Command) {
         let mut f = [0u8; MAX_FRAME];

@@ -125,13 +125,23 @@ pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
         tuning.nav.fix_horizon_us = hz;
     }
     let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
+    // As `rins record` configures a board: each command sent when the
+    // last is acknowledged (a configuration once it is stored); the
+    // sensors powered when the configuration has come (as the QEMU
+    // harness does).
+    b.program.link.sensors_later();
     for e in &events {
         if let Event::Command { len, payload } = e {
             let (_, c) = Command::decode(&payload[..usize::from(*len)]).expect("a command");
+            let acks = b.acks();
             b.command(&c);
+            while b.acks() == acks {
+                b.idle(1_000);
+            }
         }
     }
     b.link_due();
+    b.program.link.sensors_started();
     let latency = opt.latency_us.unwrap_or(u64::from(h.fix_latency_us));
     let first_rec = events.iter().find_map(|e| match e {
         Event::Imu { t_us, .. } => Some(*t_us),

@@ -414,3 +414,107 @@ fn a_hard_faults_registers_are_reported_after_the_reset() {
     let v = log.boot(ResetCause::Pin);
     assert_eq!((v.fault, v.in_row), (None, 0));
 }
+
+/// The acks the board sent: (seq, status).
+fn acks_sent(bytes: &[u8]) -> Vec<(u16, protocol::Status)> {
+    telemetry_sent(bytes)
+        .into_iter()
+        .filter_map(|t| match t {
+            protocol::Telemetry::Ack { seq, status } => Some((seq, status)),
+            _ => None,
+        })
+        .collect()
+}
+
+fn site(i: u32) -> protocol::Command {
+    protocol::Command::SetSite {
+        lat_e7: 100_000 * i as i32,
+        height_mm: 1_000,
+    }
+}
+
+#[test]
+fn a_configuration_is_acknowledged_once_stored_and_a_full_journal_says_not_stored() {
+    use protocol::Status;
+    let t = firmware::tuning::board();
+    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
+    b.program.link.sensors_later();
+    let slots = b.program.link.journal.free_slots();
+    // One at a time, as `rins command` sends them: no ack until the record
+    // is programmed (18 words, one a link run), then Accepted.
+    for i in 0..slots {
+        b.command(&site(i));
+        b.idle(20_000);
+        let n = acks_sent(&b.sent).len();
+        assert_eq!(n as u32, i, "acknowledged before it was stored");
+        b.idle(300_000);
+        assert_eq!(
+            acks_sent(&b.sent).last(),
+            Some(&(i as u16, Status::Accepted))
+        );
+    }
+    assert_eq!(b.program.link.journal.free_slots(), 0);
+    // The journal full: the change holds, and the command is told so,
+    // with a flash fault.
+    b.command(&site(99));
+    b.idle(300_000);
+    assert_eq!(
+        acks_sent(&b.sent).last(),
+        Some(&(slots as u16, Status::NotStored))
+    );
+    assert!(faults_sent(&b.sent)
+        .iter()
+        .any(|f| f.0 == protocol::Fault::FlashError));
+    assert_eq!(b.program.link.link.config.lat_e7, 9_900_000);
+}
+
+#[test]
+fn a_burst_of_configurations_is_one_record_and_every_command_is_answered() {
+    use protocol::Status;
+    let t = firmware::tuning::board();
+    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
+    b.program.link.sensors_later();
+    let free = b.program.link.journal.free_slots();
+    // 30 commands in one burst (well within the 1 KiB receive queue).
+    for i in 0..30 {
+        b.command(&site(i));
+    }
+    b.idle(1_000_000);
+    let acks = acks_sent(&b.sent);
+    assert_eq!(acks.len(), 30, "{acks:?}");
+    assert!(acks.iter().all(|a| a.1 == Status::Accepted), "{acks:?}");
+    let used = free - b.program.link.journal.free_slots();
+    assert!(used <= 2, "{used} journal slots for one burst");
+    // What is stored is the last.
+    assert_eq!(
+        b.program.link.journal.current.map(|r| r.config.lat_e7),
+        Some(2_900_000)
+    );
+}
+
+#[test]
+fn corrupt_frames_and_refused_commands_are_told_as_bad_commands_with_their_count() {
+    let t = firmware::tuning::board();
+    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
+    b.program.link.sensors_later();
+    // A frame with its CRC broken, 300 bytes of no zero (oversize), and a
+    // scheme faster than the table: three bad commands.
+    let mut f = [0u8; protocol::MAX_FRAME];
+    let n = site(1).to_frame(0, &mut f).unwrap();
+    f[2] ^= 0x5A;
+    b.receive(&f[..n]);
+    b.receive(&[0x11; 300]);
+    b.receive(&[0]);
+    b.command(&protocol::Command::SetScheme {
+        kind: protocol::SchemeKind::Continuous,
+        rate_dps: 500.0,
+        count: 0,
+    });
+    b.idle(30_000);
+    let bad: Vec<u32> = faults_sent(&b.sent)
+        .into_iter()
+        .filter(|f| f.0 == protocol::Fault::BadCommand)
+        .map(|f| f.1)
+        .collect();
+    assert_eq!(bad.last(), Some(&3), "{bad:?}");
+}

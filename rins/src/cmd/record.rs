@@ -183,6 +183,14 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
                 .map_or(String::new(), |p| p.display().to_string())
         );
     }
+    // The board's first frames may have come while it was configured (a
+    // configuration is acknowledged once stored): the relay takes the
+    // board's clock from the first of them.
+    for t in &frames {
+        for c in relay.due(t) {
+            s.send(&c)?;
+        }
+    }
     let pb = progress_bar("record");
     let start = std::time::Instant::now();
     while start.elapsed().as_secs_f64() < a.duration_s && !s.closed {
