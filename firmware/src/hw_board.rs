@@ -63,12 +63,7 @@ impl DelayNs for CycleDelay {
 /// The IMU (absent when it did not come up: the tick never runs).
 pub struct BoardImu(Option<Icm42688<ImuSpi>>);
 impl firmware::tasks::Imu for BoardImu {
-    fn read(
-        &mut self,
-    ) -> Result<
-        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
-        firmware::tasks::BusError,
-    > {
+    fn read(&mut self) -> firmware::tasks::Reading {
         self.0.as_mut().ok_or(firmware::tasks::BusError)?.read()
     }
 }

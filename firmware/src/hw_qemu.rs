@@ -111,12 +111,7 @@ impl BoardImu {
 }
 
 impl Imu for BoardImu {
-    fn read(
-        &mut self,
-    ) -> Result<
-        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
-        firmware::tasks::BusError,
-    > {
+    fn read(&mut self) -> firmware::tasks::Reading {
         let i = self.reads;
         self.reads += 1;
         let mut s = self.sensors;

@@ -330,7 +330,7 @@ impl DataMonitor {
 /// The driver behind the data-ready line: INT_STATUS says whether the
 /// data is new (a read clears it), then one burst read.
 impl<SPI: SpiDevice> crate::tasks::Imu for Icm42688<SPI> {
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, crate::tasks::BusError> {
+    fn read(&mut self) -> crate::tasks::Reading {
         match self.data_ready() {
             Ok(false) => Ok(None),
             Ok(true) => self.read_si().map(Some).map_err(|_| crate::tasks::BusError),

@@ -81,7 +81,7 @@ impl Sensors {
 }
 
 impl Imu for Sensors {
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, crate::tasks::BusError> {
+    fn read(&mut self) -> crate::tasks::Reading {
         self.reads = self.reads.wrapping_add(1);
         // A distinct raw word per read (the held sample would otherwise
         // look stuck to the data monitor); never a full-scale value.

@@ -61,6 +61,11 @@ pub const HEALTH_EVERY_US: u64 = 1_000_000;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BusError;
 
+/// What a read behind a data-ready edge gives: the raw and the SI
+/// sample, `None` when the sensor says there is no new data, or the bus's
+/// failure.
+pub type Reading = Result<Option<(RawSample, Sample)>, BusError>;
+
 /// The IMU behind its data-ready line.
 pub trait Imu {
     /// Reads the sample behind a data-ready edge: `Ok(None)` when the
@@ -68,7 +73,7 @@ pub trait Imu {
     ///
     /// # Errors
     /// The bus failed.
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, BusError>;
+    fn read(&mut self) -> Reading;
 }
 
 /// The table's encoder.

@@ -306,12 +306,7 @@ fn a_dead_data_ready_line_ends_in_safe_mode_not_a_reset_loop() {
 /// A still IMU with a little noise (so no "stuck" sensor), a still table.
 struct StillSensors(u32);
 impl firmware::tasks::Imu for StillSensors {
-    fn read(
-        &mut self,
-    ) -> Result<
-        Option<(firmware::icm42688::RawSample, firmware::icm42688::Sample)>,
-        firmware::tasks::BusError,
-    > {
+    fn read(&mut self) -> firmware::tasks::Reading {
         self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
         let n = ((self.0 >> 16) as f32 / 65_536.0 - 0.5) * 1e-3;
         let s = firmware::icm42688::Sample {

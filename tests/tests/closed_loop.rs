@@ -9,7 +9,7 @@ use core_nav::table::QuadratureCounter;
 use embedded_hal::digital::OutputPin;
 use embedded_hal::pwm::SetDutyCycle;
 use firmware::faults::Fault;
-use firmware::icm42688::{Config, Icm42688, RawSample, Sample};
+use firmware::icm42688::{Config, Icm42688, Sample};
 use firmware::navigation::Mode;
 use firmware::record::Journal;
 use firmware::tasks::{Encoder, Imu, Motor, Tuning};
@@ -50,7 +50,7 @@ impl Encoder for Counter {
 /// polls on a timer).
 struct Polled<'a>(&'a mut Icm42688<SimSpi>);
 impl Imu for Polled<'_> {
-    fn read(&mut self) -> Result<Option<(RawSample, Sample)>, firmware::tasks::BusError> {
+    fn read(&mut self) -> firmware::tasks::Reading {
         self.0
             .read_si()
             .map(Some)
