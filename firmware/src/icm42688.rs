@@ -12,6 +12,9 @@ pub mod reg {
     pub const DEVICE_CONFIG: u8 = 0x11;
     /// INT_CONFIG (bit 2: latched, bit 1: push-pull, bit 0: active high).
     pub const INT_CONFIG: u8 = 0x14;
+    /// INT_CONFIG1 (bit 6: 8 us pulses, bit 5: no de-assert minimum, bit
+    /// 4: INT_ASYNC_RESET, which the datasheet asks to clear).
+    pub const INT_CONFIG1: u8 = 0x64;
     /// TEMP_DATA1: start of the 14-byte burst (temp, accel xyz, gyro xyz).
     pub const TEMP_DATA1: u8 = 0x1D;
     /// INT_STATUS (bit 3: DATA_RDY; clears on read).
@@ -188,8 +191,11 @@ impl<SPI: SpiDevice> Icm42688<SPI> {
     }
 
     /// Resets the chip, checks its identity, configures ranges, ODR and the
-    /// data-ready interrupt (INT1, push-pull, active high, latched: cleared
-    /// by reading INT_STATUS), turns both sensors on in low-noise mode and
+    /// data-ready interrupt (INT1, push-pull, active high, a 100 us pulse a
+    /// sample: an edge every sample whether or not the last INT_STATUS was
+    /// read, so one missed read cannot stop the tick as a latched line
+    /// would; INT_ASYNC_RESET cleared as the datasheet's INT_CONFIG1 asks
+    /// for proper INT1 operation), turns both sensors on in low-noise mode and
     /// waits for the gyro to start (datasheet: 1 ms after reset, 30 ms gyro
     /// start-up; 45 ms are waited).
     ///
@@ -208,7 +214,8 @@ impl<SPI: SpiDevice> Icm42688<SPI> {
         }
         self.write_reg(reg::REG_BANK_SEL, 0x00)?;
         self.write_reg(reg::INTF_CONFIG0, 0x30)?; // big-endian data (reset value)
-        self.write_reg(reg::INT_CONFIG, 0x07)?;
+        self.write_reg(reg::INT_CONFIG, 0x03)?;
+        self.write_reg(reg::INT_CONFIG1, 0x00)?;
         self.write_reg(reg::INT_SOURCE0, 0x08)?;
         self.write_reg(
             reg::GYRO_CONFIG0,
