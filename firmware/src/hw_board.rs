@@ -235,14 +235,14 @@ impl Board {
         start_tim3(&dp.TIM3, TIMER_HZ, 100);
         // The IMU's INT1 on PC4: EXTI4 from port C, rising edge.
         let _int1 = gpioc.pc4.into_pull_down_input();
-        // SAFETY: EXTICR2 bits 3:0 select line 4's port (2 = C); IMR and
-        // RTSR bit 4.
+        // SAFETY: EXTICR2 bits 3:0 select line 4's port (2 = C); RTSR bit
+        // 4. The line's mask (IMR) is set by `enable_interrupts`, only
+        // when the IMU came up.
         unsafe {
             dp.SYSCFG
                 .exticr2()
                 .modify(|r, w| w.bits((r.bits() & !0xF) | 2));
             dp.EXTI.rtsr().modify(|r, w| w.bits(r.bits() | (1 << 4)));
-            dp.EXTI.imr().modify(|r, w| w.bits(r.bits() | (1 << 4)));
         }
         let mode = Mode {
             polarity: Polarity::IdleLow,

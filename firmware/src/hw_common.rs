@@ -236,18 +236,28 @@ pub fn clear_data_ready() {
     unsafe { (*pac::EXTI::ptr()).pr().write(|w| w.bits(1 << 4)) };
 }
 
-/// Unmasks the interrupts the tasks are bound to (the tick's only when the
-/// IMU came up).
+/// Unmasks the interrupts the tasks are bound to, the tick's only when the
+/// IMU came up. RTIC's `main` has already unmasked every bound interrupt
+/// in the NVIC before `init` (they run once `init` returns), so the NVIC
+/// alone is no gate: without the IMU, EXTI4 is masked again in the NVIC
+/// and the line's own mask (EXTI_IMR bit 4, which RTIC does not touch)
+/// stays clear, so a floating INT1 can never run the tick.
 pub fn enable_interrupts(imu: bool) {
     // SAFETY: the tasks bound to them are ready (init has returned their
-    // state by the time RTIC enables interrupts globally).
+    // state by the time RTIC enables interrupts globally); IMR bit 4 is
+    // the data-ready line's alone.
     unsafe {
         NVIC::unmask(Interrupt::USART3);
         NVIC::unmask(Interrupt::SPI3);
         NVIC::unmask(Interrupt::TIM3);
         NVIC::unmask(Interrupt::TIM2);
+        let exti = &*pac::EXTI::ptr();
         if imu {
+            exti.imr().modify(|r, w| w.bits(r.bits() | (1 << 4)));
             NVIC::unmask(Interrupt::EXTI4);
+        } else {
+            exti.imr().modify(|r, w| w.bits(r.bits() & !(1 << 4)));
+            NVIC::mask(Interrupt::EXTI4);
         }
     }
 }
