@@ -226,6 +226,15 @@ fn overruns_and_losses_are_reported_as_faults_at_a_bounded_rate() {
     assert_eq!(f[2], (protocol::Fault::TickOverrun, 53));
 }
 
+/// A board on blank flash with its IMU answering but its sensors not yet
+/// powered (as the QEMU harness boots): no IMU timeout among what a test
+/// counts.
+fn unpowered() -> HostBoard {
+    let b = HostBoard::new(firmware::tuning::board(), NorFlash::new(4096), 0, Ok(()));
+    b.program.link.sensors_later();
+    b
+}
+
 /// Every frame the board sent, decoded.
 fn telemetry_sent(bytes: &[u8]) -> Vec<protocol::Telemetry> {
     let mut d = protocol::Decoder::default();
@@ -431,9 +440,7 @@ fn site(i: u32) -> protocol::Command {
 #[test]
 fn a_configuration_is_acknowledged_once_stored_and_a_full_journal_says_not_stored() {
     use protocol::Status;
-    let t = firmware::tuning::board();
-    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
-    b.program.link.sensors_later();
+    let mut b = unpowered();
     let slots = b.program.link.journal.free_slots();
     // One at a time, as `rins command` sends them: no ack until the record
     // is programmed (18 words, one a link run), then Accepted.
@@ -466,9 +473,7 @@ fn a_configuration_is_acknowledged_once_stored_and_a_full_journal_says_not_store
 #[test]
 fn a_burst_of_configurations_is_one_record_and_every_command_is_answered() {
     use protocol::Status;
-    let t = firmware::tuning::board();
-    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
-    b.program.link.sensors_later();
+    let mut b = unpowered();
     let free = b.program.link.journal.free_slots();
     // 30 commands in one burst (well within the 1 KiB receive queue).
     for i in 0..30 {
@@ -489,9 +494,7 @@ fn a_burst_of_configurations_is_one_record_and_every_command_is_answered() {
 
 #[test]
 fn corrupt_frames_and_refused_commands_are_told_as_bad_commands_with_their_count() {
-    let t = firmware::tuning::board();
-    let mut b = HostBoard::new(t, NorFlash::new(4096), 0, Ok(()));
-    b.program.link.sensors_later();
+    let mut b = unpowered();
     // A frame with its CRC broken, 300 bytes of no zero (oversize), and a
     // scheme faster than the table: three bad commands.
     let mut f = [0u8; protocol::MAX_FRAME];

@@ -25,17 +25,23 @@ fn bench(rate_dps: f64) -> hal_sim::bench::SharedBench {
     b
 }
 
-#[test]
-fn driver_reads_the_chip_model_in_si_units() {
-    let b = bench(120.0);
-    let mut delay = SimDelay(b.clone());
+/// The driver on the chip model, initialised at +-500 deg/s, +-4 g and
+/// `odr`.
+fn initialised(b: &hal_sim::bench::SharedBench, odr: Odr) -> Icm42688<SimSpi> {
     let mut imu = Icm42688::new(SimSpi::new(b.clone()));
     let cfg = Config {
         gyro_fs: GyroFs::Dps500,
         accel_fs: AccelFs::G4,
-        odr: Odr::Hz100,
+        odr,
     };
-    imu.init(cfg, &mut delay).unwrap();
+    imu.init(cfg, &mut SimDelay(b.clone())).unwrap();
+    imu
+}
+
+#[test]
+fn driver_reads_the_chip_model_in_si_units() {
+    let b = bench(120.0);
+    let mut imu = initialised(&b, Odr::Hz100);
     let mut mon = DataMonitor::default();
     let g = b.borrow().scene.site.gravity_mps2 as f32;
     let mut n_ready = 0;
@@ -185,14 +191,7 @@ fn a_missed_status_read_does_not_stop_the_data_ready_edges() {
     // high after one missed INT_STATUS read: no edge again, the tick stops).
     use embedded_hal::digital::InputPin;
     let b = bench(0.0);
-    let mut delay = SimDelay(b.clone());
-    let mut imu = Icm42688::new(SimSpi::new(b.clone()));
-    let cfg = Config {
-        gyro_fs: GyroFs::Dps500,
-        accel_fs: AccelFs::G4,
-        odr: Odr::Hz1000,
-    };
-    imu.init(cfg, &mut delay).unwrap();
+    let _imu = initialised(&b, Odr::Hz1000);
     let mut pin = hal_sim::drivers::SimDrdy(b.clone());
     let (mut was, mut edges) = (pin.is_high().unwrap(), 0);
     // 100 ms in 20 us steps, INT_STATUS never read.
