@@ -38,12 +38,10 @@ use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 /// Crystal, Hz.
 pub const HSE_HZ: u32 = 12_000_000;
-/// System clock, Hz.
+/// System clock, Hz (through the PLL from HSE, or HSI as a fallback).
 pub const SYSCLK_HZ: u32 = 168_000_000;
-/// APB1 (USART3), Hz: SYSCLK / 4.
+/// APB1 (USART3), Hz: SYSCLK / 4 (APB1's timers, TIM2-5, at twice it).
 pub const APB1_HZ: u32 = 42_000_000;
-/// APB1's timers (TIM2-5) run at twice APB1, Hz.
-pub const TIMER_HZ: u32 = 84_000_000;
 /// The journal's sectors.
 pub const JOURNAL: [Sector; 2] = F405_SECTORS;
 /// The 64-bit clock's counter at boot.
@@ -52,12 +50,59 @@ const CLOCK_START: u32 = 0;
 /// The IMU's SPI device: the bus, chip select, and a real delay.
 type ImuSpi = ExclusiveDevice<Spi<SPI1>, PA4<Output<PushPull>>, CycleDelay>;
 
-/// A busy-wait delay (the IMU's start-up, before the scheduler runs).
-pub struct CycleDelay;
+/// A busy-wait delay (the IMU's start-up, before the scheduler runs) at
+/// the system clock's MHz.
+pub struct CycleDelay(u32);
 impl DelayNs for CycleDelay {
     fn delay_ns(&mut self, ns: u32) {
-        cortex_m::asm::delay((u64::from(ns) * u64::from(SYSCLK_HZ / 1_000_000) / 1_000) as u32);
+        cortex_m::asm::delay((u64::from(ns) * u64::from(self.0) / 1_000) as u32);
     }
+}
+
+/// RCC's start-up flags (RM0090 7.3.1, 7.3.2) for `firmware::clocks`.
+struct Rcc<'a>(&'a pac::RCC);
+
+impl firmware::ports::ClockControl for Rcc<'_> {
+    fn hse_on(&mut self, on: bool) {
+        self.0.cr().modify(|_, w| w.hseon().bit(on));
+    }
+    fn hse_ready(&mut self) -> bool {
+        self.0.cr().read().hserdy().bit_is_set()
+    }
+    fn pll_configure(&mut self, src: firmware::ports::ClockSource) {
+        // 2 MHz into the VCO (M), 336 MHz out of it (N = 168), 168 MHz
+        // system (P = 2), 48 MHz for USB (Q = 7); PLLSRC bit 22.
+        let (m, hse) = match src {
+            firmware::ports::ClockSource::Hse => (HSE_HZ / 2_000_000, 1),
+            firmware::ports::ClockSource::Hsi => (16_000_000 / 2_000_000, 0),
+        };
+        // SAFETY: the PLL is off (PLLCFGR is written only then).
+        self.0
+            .pllcfgr()
+            .write(|w| unsafe { w.bits(m | (168 << 6) | (hse << 22) | (7 << 24)) });
+    }
+    fn pll_on(&mut self, on: bool) {
+        self.0.cr().modify(|_, w| w.pllon().bit(on));
+    }
+    fn pll_ready(&mut self) -> bool {
+        self.0.cr().read().pllrdy().bit_is_set()
+    }
+}
+
+/// The clock tree started with every wait bounded (`firmware::clocks`),
+/// then set by the HAL from the source that was found to start (its own
+/// waits then return at once: the same parts just started).
+fn start_clocks(rcc: pac::RCC) -> (stm32f4xx_hal::rcc::Rcc, Result<(), Fault>) {
+    let plan = firmware::clocks::plan(&mut Rcc(&rcc), firmware::clocks::START_POLLS);
+    let cfg = match plan {
+        firmware::clocks::Plan::Hse168 => RccConfig::hse(HSE_HZ.Hz()),
+        _ => RccConfig::hsi(),
+    };
+    let cfg = match plan {
+        firmware::clocks::Plan::Hsi16 => cfg,
+        _ => cfg.sysclk(SYSCLK_HZ.Hz()).pclk1(APB1_HZ.Hz()),
+    };
+    (rcc.freeze(cfg), plan.status())
 }
 
 /// The IMU (absent when it did not come up: the tick never runs).
@@ -216,10 +261,12 @@ pub type Board = Parts<BoardImu, BoardEncoder, BoardMotor, BoardFlash, BoardWatc
 impl Board {
     /// Clocks, pins and peripherals; the IMU initialised.
     pub fn new(dp: pac::Peripherals) -> Self {
-        let mut rcc = dp.RCC.freeze(
-            RccConfig::hse(HSE_HZ.Hz())
-                .sysclk(SYSCLK_HZ.Hz())
-                .pclk1(APB1_HZ.Hz()),
+        let (mut rcc, clock_status) = start_clocks(dp.RCC);
+        let clocks = rcc.clocks;
+        let (sysclk, apb1, timer) = (
+            clocks.sysclk().raw(),
+            clocks.pclk1().raw(),
+            clocks.timclk1().raw(),
         );
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -230,9 +277,11 @@ impl Board {
         pac::SYSCFG::enable(&mut rcc);
         let _tx = gpiob.pb10.into_alternate::<7>();
         let _rx = gpiob.pb11.into_alternate::<7>();
-        start_usart(&dp.USART3, APB1_HZ);
-        start_clock(&dp.TIM5, TIMER_HZ, CLOCK_START);
-        start_tim3(&dp.TIM3, TIMER_HZ, 100);
+        pac::DMA1::enable(&mut rcc);
+        start_usart(&dp.USART3, apb1, false);
+        start_rx_dma(&dp.DMA1);
+        start_clock(&dp.TIM5, timer, CLOCK_START);
+        start_tim3(&dp.TIM3, timer, 100);
         // The IMU's INT1 on PC4: EXTI4 from port C, rising edge.
         let _int1 = gpioc.pc4.into_pull_down_input();
         // SAFETY: EXTICR2 bits 3:0 select line 4's port (2 = C); RTSR bit
@@ -257,10 +306,11 @@ impl Board {
         let cs = gpioa
             .pa4
             .into_push_pull_output_in_state(stm32f4xx_hal::gpio::PinState::High);
-        let (imu, imu_status) = match ExclusiveDevice::new(spi, cs, CycleDelay) {
+        let (imu, imu_status) = match ExclusiveDevice::new(spi, cs, CycleDelay(sysclk / 1_000_000))
+        {
             Ok(dev) => {
                 let mut imu = Icm42688::new(dev);
-                match imu.init(Config::default(), &mut CycleDelay) {
+                match imu.init(Config::default(), &mut CycleDelay(sysclk / 1_000_000)) {
                     Ok(()) => (Some(imu), Ok(())),
                     Err(firmware::icm42688::Error::WrongDevice(_)) => {
                         (None, Err(Fault::WrongDevice))
@@ -287,6 +337,7 @@ impl Board {
             flash: BoardFlash(dp.FLASH),
             wdg: BoardWatchdog(IndependentWatchdog::new(dp.IWDG)),
             imu_status,
+            clock_status,
         }
     }
 }
@@ -378,3 +429,105 @@ pub fn sensors_on() -> bool {
 
 /// TIM2 never runs on the board.
 pub fn count_edge() {}
+
+/// The receive ring's length, bytes: 22 ms at 921,600 baud, twice the
+/// link task's period (the book's firmware chapter has the margins).
+const RX_LEN: u32 = 2048;
+
+/// The receive ring DMA1 stream 1 writes (circular, a byte at a time).
+static mut RX_RING: [u8; RX_LEN as usize] = [0; RX_LEN as usize];
+
+/// Half rings the stream has completed (its interrupt counts them).
+static RX_HALVES: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// DMA1 stream 1's flags in LISR / LIFCR: FEIF1 (6), DMEIF1 (8), TEIF1
+/// (9), HTIF1 (10), TCIF1 (11) (RM0090 10.5.1).
+const S1_FLAGS: u32 = 0b1111_0100_0000;
+
+/// USART3's data register (RM0090 table 1 and 30.6.2), the stream's
+/// source.
+const USART3_DR: u32 = 0x4000_4804;
+
+/// Starts USART3's receive DMA: DMA1 stream 1, channel 4 (RM0090 table
+/// 42), peripheral to memory, bytes, circular over [`RX_RING`], the
+/// half-transfer and transfer-complete interrupts counting its halves, a
+/// transfer error's too (the stream is started again).
+fn start_rx_dma(dma: &pac::DMA1) {
+    let s = dma.st(1);
+    let ring = core::ptr::addr_of_mut!(RX_RING) as u32;
+    // SAFETY: the stream is off while it is set up; addresses of
+    // USART3's DR and of a static the stream alone writes.
+    unsafe {
+        s.cr().write(|w| w.bits(0));
+        while s.cr().read().bits() & 1 != 0 {}
+        dma.lifcr().write(|w| w.bits(S1_FLAGS));
+        s.par().write(|w| w.bits(USART3_DR));
+        s.m0ar().write(|w| w.bits(ring));
+        s.ndtr().write(|w| w.bits(RX_LEN));
+        // CHSEL 4 (27:25), PL high (17:16 = 2), MINC (10), CIRC (8),
+        // DIR peripheral to memory (7:6 = 0), TCIE (4), HTIE (3),
+        // TEIE (2), EN (0). FIFO off (direct mode, FCR's reset value).
+        s.cr().write(|w| {
+            w.bits(
+                (4 << 25) | (2 << 16) | (1 << 10) | (1 << 8) | (1 << 4) | (1 << 3) | (1 << 2) | 1,
+            )
+        });
+    }
+}
+
+/// DMA1 stream 1's interrupt: half rings counted; after a transfer error
+/// (which turns the stream off) the bytes since are lost, counted, and
+/// the stream started again.
+pub fn rx_dma_event() {
+    // SAFETY: DMA1's flags; the stream's registers only this interrupt
+    // and `start_rx_dma` (before it is unmasked) write.
+    let dma = unsafe { &*pac::DMA1::ptr() };
+    let lisr = dma.lisr().read().bits();
+    // SAFETY: writing ones clears stream 1's flags only.
+    dma.lifcr().write(|w| unsafe { w.bits(lisr & S1_FLAGS) });
+    let halves = ((lisr >> 10) & 1) + ((lisr >> 11) & 1);
+    RX_HALVES.fetch_add(halves, core::sync::atomic::Ordering::Release);
+    if lisr & (1 << 9) != 0 {
+        STATS
+            .rx_lost
+            .fetch_add(1, core::sync::atomic::Ordering::Relaxed);
+        // SAFETY: EN on again, the set-up kept.
+        dma.st(1)
+            .cr()
+            .modify(|r, w| unsafe { w.bits(r.bits() | 1) });
+    }
+}
+
+/// The receive ring as the link task reads it.
+pub struct BoardRx;
+
+impl firmware::ports::RxDma for BoardRx {
+    const LEN: u32 = RX_LEN;
+    fn halves(&self) -> u32 {
+        RX_HALVES.load(core::sync::atomic::Ordering::Acquire)
+    }
+    fn remaining(&self) -> u32 {
+        // SAFETY: a read of the stream's counter.
+        unsafe { (*pac::DMA1::ptr()).st(1).ndtr().read().bits() & 0xFFFF }
+    }
+    fn byte(&self, i: u32) -> u8 {
+        if i >= RX_LEN {
+            return 0;
+        }
+        // SAFETY: inside the ring (checked); a volatile read of a byte the
+        // DMA may be writing (a byte is written whole).
+        unsafe {
+            core::ptr::read_volatile(core::ptr::addr_of!(RX_RING).cast::<u8>().add(i as usize))
+        }
+    }
+}
+
+/// The receive ring (the DMA's).
+pub fn rx() -> &'static BoardRx {
+    &BoardRx
+}
+
+/// No software ring on the board: the DMA receives.
+pub fn rx_soft() -> Option<&'static firmware::uart_rx::SoftDma> {
+    None
+}

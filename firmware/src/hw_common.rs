@@ -56,6 +56,9 @@ pub struct Parts<Imu, Enc, Mot, Fl, Wdg> {
     pub wdg: Wdg,
     /// Whether the IMU came up (`Err`: a stopped board that reports).
     pub imu_status: Result<(), firmware::faults::Fault>,
+    /// How the clock tree started (`firmware::clocks`; `Err`: a
+    /// fallback, reported).
+    pub clock_status: Result<(), firmware::faults::Fault>,
 }
 
 /// The telemetry link's baud rate.
@@ -169,30 +172,49 @@ pub fn clear_tim2(t: &pac::TIM2) {
     t.sr().write(|w| unsafe { w.bits(0) });
 }
 
-/// USART3: 8N1 at [`BAUD`] from `apb1_hz`, receive interrupt on (the
-/// transmit interrupt is turned on when bytes are queued).
-pub fn start_usart(u: &pac::USART3, apb1_hz: u32) {
+/// USART3: 8N1 at [`BAUD`] from `apb1_hz`; received bytes by the receive
+/// interrupt (`rx_irq`: the QEMU build, into [`firmware::uart_rx::SoftDma`])
+/// or by DMA (the board's `start_rx_dma`). The transmit interrupt is
+/// turned on when bytes are queued.
+pub fn start_usart(u: &pac::USART3, apb1_hz: u32, rx_irq: bool) {
     // BRR = f / baud in 1/16ths (oversampling by 16): 42 MHz gives 45.57,
     // written 46 (913,043 baud: 0.9 % off, within the 2 % a UART takes).
     let brr = ((apb1_hz + BAUD / 2) / BAUD) as u16;
-    // SAFETY: plain register writes (BRR; CR1: UE, RXNEIE, TE, RE).
+    let rxneie = if rx_irq { 1 << 5 } else { 0 };
+    // SAFETY: plain register writes (BRR; CR1: UE, RXNEIE, TE, RE; CR3:
+    // DMAR, the receive DMA request, when the interrupt does not take
+    // the bytes).
     unsafe {
         u.brr().write(|w| w.bits(brr));
+        u.cr3().write(|w| w.bits(if rx_irq { 0 } else { 1 << 6 }));
         u.cr1()
-            .write(|w| w.bits((1 << 13) | (1 << 5) | (1 << 3) | (1 << 2)));
+            .write(|w| w.bits((1 << 13) | rxneie | (1 << 3) | (1 << 2)));
     }
 }
 
-/// The USART's interrupt: every received byte into the receive queue
-/// (with the overrun flag: bytes lost before it), the next queued byte out
-/// while the transmitter is empty, the transmit interrupt off when the
-/// queue is. Returns the bytes sent.
-pub fn usart_service(u: &mut pac::USART3, q: &mut UartEnds<'static>, stats: &Stats) -> u32 {
+/// The USART's interrupt: with the receive interrupt on (the QEMU build)
+/// every received byte into `soft` (with the overrun flag: a byte lost
+/// before it); the next queued byte out while the transmitter is empty,
+/// the transmit interrupt off when the queue is. Returns the bytes sent.
+/// With the DMA receiving (the board: `soft` is `None`) DR is never read
+/// here: that would take the DMA's byte.
+pub fn usart_service(
+    u: &mut pac::USART3,
+    q: &mut UartEnds<'static>,
+    soft: Option<&firmware::uart_rx::SoftDma>,
+    stats: &Stats,
+) -> u32 {
     let sr = u.sr().read().bits();
-    if sr & ((1 << 5) | (1 << 3)) != 0 {
+    let rx_irq = u.cr1().read().bits() & (1 << 5) != 0;
+    if let Some(soft) = soft.filter(|_| rx_irq && sr & ((1 << 5) | (1 << 3)) != 0) {
         // Reading SR then DR clears RXNE and ORE.
         let b = (u.dr().read().bits() & 0xFF) as u8;
-        q.received(b, sr & (1 << 3) != 0, stats);
+        if sr & (1 << 3) != 0 {
+            stats
+                .rx_lost
+                .fetch_add(1, core::sync::atomic::Ordering::Relaxed);
+        }
+        soft.write(b);
     }
     if u.cr1().read().bits() & (1 << 7) == 0 {
         return 0;
@@ -248,6 +270,7 @@ pub fn enable_interrupts(imu: bool) {
     // the data-ready line's alone.
     unsafe {
         NVIC::unmask(Interrupt::USART3);
+        NVIC::unmask(Interrupt::DMA1_STREAM1);
         NVIC::unmask(Interrupt::SPI3);
         NVIC::unmask(Interrupt::TIM3);
         NVIC::unmask(Interrupt::TIM2);

@@ -211,7 +211,7 @@ impl Board {
         NEED_COMMANDS.store(header.commands, Ordering::Relaxed);
         let t = firmware::replay::tuning(&header, firmware::tuning::board());
         cortex_m::interrupt::free(|cs| *TUNING.borrow(cs).borrow_mut() = Some(t));
-        start_usart(&dp.USART3, 42_000_000);
+        start_usart(&dp.USART3, 42_000_000, true);
         start_clock(&dp.TIM5, TIMER_HZ, CLOCK_START);
         start_tim3(&dp.TIM3, TIMER_HZ, 100);
         start_tim2(&dp.TIM2, TIMER_HZ, 1_000);
@@ -234,6 +234,8 @@ impl Board {
             }),
             wdg: BoardWatchdog,
             imu_status: Ok(()),
+            // QEMU has no RCC model: no clock set-up to time out.
+            clock_status: Ok(()),
         }
     }
 }
@@ -423,3 +425,20 @@ pub struct Harness {
     /// after the replay (one expected).
     pub probe_overruns: u32,
 }
+
+/// The receive ring where QEMU's USART interrupt writes (QEMU 7.2 models
+/// no DMA on the STM32F405): the same ring reader as the board's.
+static RX_SOFT: firmware::uart_rx::SoftDma = firmware::uart_rx::SoftDma::new();
+
+/// The receive ring (the USART interrupt's).
+pub fn rx() -> &'static firmware::uart_rx::SoftDma {
+    &RX_SOFT
+}
+
+/// The USART interrupt writes the ring.
+pub fn rx_soft() -> Option<&'static firmware::uart_rx::SoftDma> {
+    Some(&RX_SOFT)
+}
+
+/// No DMA runs under QEMU.
+pub fn rx_dma_event() {}

@@ -124,27 +124,7 @@ impl Default for Config {
     }
 }
 
-/// A raw sample in LSB, as read (chip axes = the sensor frame `s`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub struct RawSample {
-    /// TEMP_DATA.
-    pub temp_lsb: i16,
-    /// ACCEL_DATA x, y, z.
-    pub accel_lsb: [i16; 3],
-    /// GYRO_DATA x, y, z.
-    pub gyro_lsb: [i16; 3],
-}
-
-/// A sample in SI units, in the sensor frame `s`.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
-pub struct Sample {
-    /// Angular rate, rad/s.
-    pub gyro_radps: [f32; 3],
-    /// Specific force, m/s^2.
-    pub accel_mps2: [f32; 3],
-    /// Die temperature, deg C.
-    pub temp_c: f32,
-}
+pub use crate::ports::{RawSample, Sample};
 
 /// Standard gravity for the g -> m/s^2 conversion (the chip's unit), m/s^2.
 const G0: f32 = 9.806_65;
@@ -336,12 +316,12 @@ impl DataMonitor {
 
 /// The driver behind the data-ready line: INT_STATUS says whether the
 /// data is new (a read clears it), then one burst read.
-impl<SPI: SpiDevice> crate::tasks::Imu for Icm42688<SPI> {
-    fn read(&mut self) -> crate::tasks::Reading {
+impl<SPI: SpiDevice> crate::ports::Imu for Icm42688<SPI> {
+    fn read(&mut self) -> crate::ports::Reading {
         match self.data_ready() {
             Ok(false) => Ok(None),
-            Ok(true) => self.read_si().map(Some).map_err(|_| crate::tasks::BusError),
-            Err(_) => Err(crate::tasks::BusError),
+            Ok(true) => self.read_si().map(Some).map_err(|_| crate::ports::BusError),
+            Err(_) => Err(crate::ports::BusError),
         }
     }
 }

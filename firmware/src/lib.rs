@@ -10,6 +10,9 @@
 //!   stall filters).
 //! - [`calibration`]: the power-up calibration.
 //! - [`navigation`]: strapdown and aided navigation, fixes at their epoch.
+//! - [`ports`]: the traits the board's parts implement (IMU, encoder,
+//!   motor, watchdog, flash, the receive ring's DMA).
+//! - [`uart_rx`]: the receive ring the link task reads.
 //! - [`link`]: commands in, telemetry out ([`protocol`] on the wire).
 //! - [`record`]: the flash journal (erases only at boot).
 //! - [`store`]: what is stored and when a command is told so.
@@ -17,6 +20,7 @@
 //! - [`watchdog`]: the watchdog's progress rule.
 //! - [`resets`]: what survives a reset (resets in a row, a HardFault's
 //!   registers) and the rule against a reset loop.
+//! - [`clocks`]: the clock tree's start, every wait bounded.
 //! - [`clock`]: the 64-bit microsecond clock and the sensor's sample clock.
 //! - [`icm42688`]: the IMU driver, generic over `embedded_hal::spi::SpiDevice`.
 //! - [`replay`]: the sensors' stand-in for the QEMU build.
@@ -37,11 +41,13 @@
 
 pub mod calibration;
 pub mod clock;
+pub mod clocks;
 pub mod control;
 pub mod faults;
 pub mod icm42688;
 pub mod link;
 pub mod navigation;
+pub mod ports;
 pub mod queue;
 pub mod record;
 pub mod replay;
@@ -49,6 +55,7 @@ pub mod resets;
 pub mod store;
 pub mod tasks;
 pub mod tuning;
+pub mod uart_rx;
 pub mod watchdog;
 
 pub use protocol;

@@ -29,48 +29,7 @@ pub const SLOT_WORDS: usize = RECORD_LEN / WORD;
 /// Free slots below which the boot moves the journal to the other sector.
 pub const LOW_WATER: u32 = 16;
 
-/// What the flash controller refused.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FlashError {
-    /// The controller's error flags after an operation (SR bits), or the
-    /// unlock did not take.
-    Controller(u32),
-    /// An address outside the journal's sectors.
-    OutOfRange,
-    /// The journal has no blank slot left until the next boot.
-    Full,
-}
-
-/// NOR flash as the journal uses it: reads, word programs (bits go from 1
-/// to 0 only), sector erases (all bits to 1).
-pub trait Flash {
-    /// Reads `buf.len()` bytes at `addr` (an absolute address).
-    ///
-    /// # Errors
-    /// An address outside the device.
-    fn read(&mut self, addr: u32, buf: &mut [u8]) -> Result<(), FlashError>;
-    /// Programs one word at `addr` (word aligned, already erased).
-    ///
-    /// # Errors
-    /// The controller's flags.
-    fn program_word(&mut self, addr: u32, word: u32) -> Result<(), FlashError>;
-    /// Erases a whole sector (only at boot).
-    ///
-    /// # Errors
-    /// The controller's flags.
-    fn erase(&mut self, sector: Sector) -> Result<(), FlashError>;
-}
-
-/// A flash sector of the journal.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Sector {
-    /// The controller's sector number (SNB).
-    pub number: u8,
-    /// Its first address.
-    pub base: u32,
-    /// Its length, bytes.
-    pub len: u32,
-}
+pub use crate::ports::{Flash, FlashError, Sector};
 
 impl Sector {
     fn slots(&self) -> u32 {

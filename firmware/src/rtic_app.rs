@@ -77,6 +77,7 @@ mod app {
             reset,
             imu: board.imu_status,
             tuning: hw::tuning(),
+            clock: board.clock_status,
             resets,
         };
         let program = self::boot(cx.local.program, cx.local.queues, journal, boot);
@@ -112,9 +113,10 @@ mod app {
         )
     }
 
-    /// USART3 (priority 4, the top): one byte in or out. Nothing may hold
-    /// it off for more than a byte (11 µs at 921,600 baud): no task takes a
-    /// lock at this priority for longer than a register write.
+    /// USART3 (priority 4, the top): a byte out (and, under QEMU, a byte
+    /// in: the board's DMA receives). Nothing may hold it off for more than
+    /// a byte (11 µs at 921,600 baud): no task takes a lock at this
+    /// priority for longer than a register write.
     #[task(binds = USART3, priority = 4, shared = [usart], local = [uart])]
     fn uart(mut cx: uart::Context) {
         let c0 = hw::cycles();
@@ -122,12 +124,19 @@ mod app {
         let sent = cx
             .shared
             .usart
-            .lock(|u| hw::usart_service(u, uart, &hw::STATS));
+            .lock(|u| hw::usart_service(u, uart, hw::rx_soft(), &hw::STATS));
         // The chip's case: a byte each way at most (QEMU's transmitter
         // takes the whole queue in one run).
         if sent <= 1 {
             Stats::worst(&hw::STATS.uart_worst, hw::since(c0));
         }
+    }
+
+    /// The receive DMA's half-ring events (priority 4; the board's DMA1
+    /// stream 1, never under QEMU): counted for the link task's reader.
+    #[task(binds = DMA1_STREAM1, priority = 4)]
+    fn rx_dma(_: rx_dma::Context) {
+        hw::rx_dma_event();
     }
 
     /// The control tick (priority 3): the IMU's data-ready edge (EXTI4 on
@@ -181,7 +190,7 @@ mod app {
         let out = cx
             .local
             .link
-            .run(now, cx.local.flash, cx.local.wdg, &hw::STATS);
+            .run(now, hw::rx(), cx.local.flash, cx.local.wdg, &hw::STATS);
         if out.healthy {
             hw::reset_healthy();
         }

@@ -5,7 +5,8 @@
 //!
 //! | task | priority | paced by | does |
 //! | --- | --- | --- | --- |
-//! | UART | 4 (top) | RXNE / TXE | one byte to / from the queues |
+//! | UART | 4 (top) | TXE (RXNE: QEMU) | the next byte out (in: the receive ring) |
+//! | receive DMA | 4 | half a ring | counts the ring's halves ([`crate::uart_rx`]) |
 //! | [`TickTask`] | 3 | the IMU's data-ready (1 kHz) | IMU read, rate loop, encoder at 50 Hz, motor |
 //! | [`NavTask`] | 2 | pended by the tick every 10th sample | calibration, strapdown, aided filter |
 //! | [`LinkTask`] | 1 | a 100 Hz timer | commands, telemetry, the flash journal, supervision, the watchdog |
@@ -14,8 +15,12 @@
 //! oscillator is the time base (as flight controllers do): the rate loop
 //! runs once per sample, never on a sample twice or between samples, and
 //! [`crate::clock::SampleClock`] counts samples dropped or duplicated.
-//! The UART's interrupt is above the tick: a byte arrives every 11 µs at
-//! 921,600 baud and the tick may take 200 µs.
+//! Received bytes need no task: the DMA writes them into a ring the link
+//! task reads ([`crate::uart_rx`]), so they survive the CPU's stalls on
+//! flash (a word programmed stalls every fetch). The UART's interrupt is
+//! above the tick all the same: the QEMU build (no DMA model) receives a
+//! byte every 11 µs at 921,600 baud through it, and the tick may take
+//! 200 µs.
 //!
 //! Between tasks only lock-free single-producer single-consumer queues
 //! ([`crate::queue`]) and atomic counters: no task ever waits for a lower
@@ -24,13 +29,15 @@
 use crate::clock::{Edge, SampleClock};
 use crate::control::{Control, ControlCmd, ControlConfig, NavInput};
 use crate::faults::Fault;
-use crate::icm42688::{RawSample, Sample};
 use crate::link::{scheme, Link, Route};
 use crate::navigation::{BoardAided, NavCmd, NavConfig, NavMemory, Navigator, Outbound};
+pub use crate::ports::{BusError, Encoder, Imu, Motor, Reading, Watchdog};
+use crate::ports::{Flash, RxDma, Sample};
 use crate::queue::{Consumer, Producer, Queue};
-use crate::record::{Flash, Journal};
+use crate::record::Journal;
 use crate::resets::{BootVerdict, HEALTHY_AFTER_US};
 use crate::store::Store;
+use crate::uart_rx::RxRing;
 use crate::watchdog::{Feeder, Progress};
 use core::sync::atomic::{AtomicU32, Ordering};
 use core_nav::aided::{AidedConfig, OriginE7};
@@ -43,8 +50,6 @@ pub const NAV_Q: usize = 8;
 pub const CMD_Q: usize = 8;
 /// Telemetry queued by a task for the link.
 pub const OUT_Q: usize = 32;
-/// Received bytes queued (11 ms at 921,600 baud: the link task runs every 10 ms).
-pub const RX_Q: usize = 1024;
 /// Bytes queued to transmit.
 pub const TX_Q: usize = 2048;
 /// No IMU sample for this long stops the motor and reports
@@ -56,43 +61,6 @@ pub const TX_Q: usize = 2048;
 pub const IMU_TIMEOUT_US: u32 = 20_000;
 /// Health telemetry every this long, µs.
 pub const HEALTH_EVERY_US: u64 = 1_000_000;
-
-/// The IMU's bus failed (the sample is skipped and counted).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct BusError;
-
-/// What a read behind a data-ready edge gives: the raw and the SI
-/// sample, `None` when the sensor says there is no new data, or the bus's
-/// failure.
-pub type Reading = Result<Option<(RawSample, Sample)>, BusError>;
-
-/// The IMU behind its data-ready line.
-pub trait Imu {
-    /// Reads the sample behind a data-ready edge: `Ok(None)` when the
-    /// sensor says there is no new data.
-    ///
-    /// # Errors
-    /// The bus failed.
-    fn read(&mut self) -> Reading;
-}
-
-/// The table's encoder.
-pub trait Encoder {
-    /// The 16-bit hardware count.
-    fn count(&mut self) -> u16;
-}
-
-/// The table's motor.
-pub trait Motor {
-    /// Duty in [-1, 1], the sign the direction.
-    fn set(&mut self, duty: f32);
-}
-
-/// The hardware watchdog.
-pub trait Watchdog {
-    /// Feeds it.
-    fn feed(&mut self);
-}
 
 /// Counters every task writes and the link reports.
 #[derive(Debug, Default)]
@@ -205,7 +173,6 @@ pub struct Queues {
     nav_cmd: Queue<NavCmd, CMD_Q>,
     tick_out: Queue<Telemetry, OUT_Q>,
     nav_out: Queue<Outbound, OUT_Q>,
-    rx: Queue<u8, RX_Q>,
     tx: Queue<u8, TX_Q>,
 }
 
@@ -228,32 +195,19 @@ impl Queues {
             nav_cmd: Queue::new(),
             tick_out: Queue::new(),
             nav_out: Queue::new(),
-            rx: Queue::new(),
             tx: Queue::new(),
         }
     }
 }
 
-/// The UART interrupt's ends of the byte queues.
+/// The UART interrupt's end of the transmit queue (received bytes go
+/// into the receive ring, [`crate::uart_rx`], which the link task reads).
 pub struct UartEnds<'a> {
-    /// Received bytes in.
-    pub rx: Producer<'a, u8, RX_Q>,
     /// Bytes to send out.
     pub tx: Consumer<'a, u8, TX_Q>,
 }
 
 impl UartEnds<'_> {
-    /// A received byte (`overrun`: the UART lost bytes before it).
-    pub fn received(&mut self, b: u8, overrun: bool, stats: &Stats) {
-        stats.rx_bytes.fetch_add(1, Ordering::Relaxed);
-        if overrun {
-            stats.rx_lost.fetch_add(1, Ordering::Relaxed);
-        }
-        if self.rx.enqueue(b).is_err() {
-            stats.rx_lost.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-
     /// The next byte to send, if any.
     pub fn next_tx(&mut self) -> Option<u8> {
         self.tx.dequeue()
@@ -284,6 +238,9 @@ pub struct Boot {
     pub imu: Result<(), Fault>,
     /// The compiled-in tuning.
     pub tuning: Tuning,
+    /// How the clock tree started (`crate::clocks`): `Err` the fallback's
+    /// fault ([`Fault::ClockFailed`]: a stopped board that reports).
+    pub clock: Result<(), Fault>,
     /// The reset log's word on this boot (`crate::resets`): resets in a
     /// row, a HardFault's registers, safe mode.
     pub resets: BootVerdict,
@@ -322,11 +279,14 @@ impl<'a> Program<'a> {
         let (nav_cmd_p, nav_cmd_c) = queues.nav_cmd.split();
         let (tick_out_p, tick_out_c) = queues.tick_out.split();
         let (nav_out_p, nav_out_c) = queues.nav_out.split();
-        let (rx_p, rx_c) = queues.rx.split();
         // Safe mode: a board that reset itself too often in a row boots
         // as one whose IMU did not answer: stopped, no tick, the link up.
+        // A PLL that did not lock leaves 16 MHz: navigation does not fit,
+        // so the same stopped board.
         let imu = if boot.resets.safe_mode {
             Err(Fault::ResetLoop)
+        } else if boot.clock == Err(Fault::ClockFailed) {
+            Err(Fault::ClockFailed)
         } else {
             boot.imu
         };
@@ -346,7 +306,7 @@ impl<'a> Program<'a> {
             link: Link::new(config, t.control.limits),
             store: Store::new(stored.and_then(|r| r.calibration)),
             journal,
-            rx: rx_c,
+            rx: RxRing::default(),
             tx: tx_p,
             from_tick: tick_out_c,
             from_nav: nav_out_c,
@@ -362,7 +322,7 @@ impl<'a> Program<'a> {
             timed_out: false,
             reset: boot.reset,
             tuning: t,
-            boot_reports: [None; 5],
+            boot_reports: [None; 6],
             counted: [(0, None); COUNTED.len()],
             refused: 0,
         };
@@ -383,6 +343,15 @@ impl<'a> Program<'a> {
                 fault: Fault::HardFault,
                 count: 1,
             }),
+            // (A clock that failed is told below, as the stopped board's.)
+            boot.clock
+                .err()
+                .filter(|f| imu != Err(*f))
+                .map(|fault| Telemetry::Fault {
+                    t_us: boot.now_us,
+                    fault,
+                    count: 1,
+                }),
         ];
         if let Err(f) = imu {
             // No IMU: the board stays stopped, reports, and runs no tick.
@@ -426,7 +395,7 @@ impl<'a> Program<'a> {
                 out: nav_out_p,
             },
             link,
-            uart: UartEnds { rx: rx_p, tx: tx_c },
+            uart: UartEnds { tx: tx_c },
         }))
     }
 }
@@ -558,7 +527,7 @@ pub struct LinkTask<'a> {
     pub journal: Journal,
     /// What is to be stored, and the commands waiting on it.
     store: Store,
-    rx: Consumer<'a, u8, RX_Q>,
+    rx: RxRing,
     tx: Producer<'a, u8, TX_Q>,
     from_tick: Consumer<'a, Telemetry, OUT_Q>,
     from_nav: Consumer<'a, Outbound, OUT_Q>,
@@ -576,7 +545,7 @@ pub struct LinkTask<'a> {
     timed_out: bool,
     reset: ResetCause,
     tuning: Tuning,
-    boot_reports: [Option<Telemetry>; 5],
+    boot_reports: [Option<Telemetry>; 6],
     /// Commands refused as malformed or out of bounds.
     refused: u32,
     /// What the counters below were when each was last reported.
@@ -640,6 +609,7 @@ impl LinkTask<'_> {
     pub fn run(
         &mut self,
         mcu_us: u64,
+        rx: &impl RxDma,
         flash: &mut impl Flash,
         wdg: &mut impl Watchdog,
         stats: &Stats,
@@ -650,7 +620,7 @@ impl LinkTask<'_> {
         for t in self.boot_reports.iter_mut().filter_map(Option::take) {
             send(&mut self.link, &mut self.tx, &t);
         }
-        self.receive(stats);
+        self.receive(rx, stats);
         while let Some(t) = self.from_tick.dequeue() {
             send(&mut self.link, &mut self.tx, &t);
         }
@@ -691,9 +661,16 @@ impl LinkTask<'_> {
         o
     }
 
-    fn receive(&mut self, stats: &Stats) {
+    /// The bytes received since the last run: the ring's overwritten
+    /// ones counted lost, the rest decoded in order.
+    fn receive(&mut self, dma: &impl RxDma, stats: &Stats) {
+        let lost = self.rx.sync(dma);
+        if lost > 0 {
+            stats.rx_lost.fetch_add(lost, Ordering::Relaxed);
+        }
         let mut routes: heapless::Vec<Route, 4> = heapless::Vec::new();
-        while let Some(b) = self.rx.dequeue() {
+        while let Some(b) = self.rx.next(dma) {
+            stats.rx_bytes.fetch_add(1, Ordering::Relaxed);
             let (link, tx) = (&mut self.link, &mut self.tx);
             let mut acks: heapless::Vec<Telemetry, 1> = heapless::Vec::new();
             link.rx(

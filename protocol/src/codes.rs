@@ -71,7 +71,7 @@ codes! {
         /// The table does not follow the command (safe state: motor off
         /// until a new start command).
         MotorStall = 6,
-        /// No IMU sample for 100 ms (safe state: motor off).
+        /// No IMU sample for 20 ms (safe state: motor off).
         ImuTimeout = 7,
         /// The power-up calibration refused its data (it restarts).
         CalibrationRefused = 8,
@@ -93,8 +93,8 @@ codes! {
         /// Navigation had not taken the last input when the next came (its
         /// queue full: the input is dropped).
         NavOverrun = 15,
-        /// Received bytes lost: the UART's overrun flag, or the receive
-        /// queue full.
+        /// Received bytes lost: the UART's overrun flag, or bytes the
+        /// receive ring overwrote before they were read.
         RxLost = 16,
         /// The flash record could not be written (the journal full, or the
         /// controller's error flags).
@@ -115,12 +115,19 @@ codes! {
         /// The last reset came from a HardFault: its registers are in the
         /// boot report (`Telemetry::Boot`).
         HardFault = 22,
+        /// The crystal (HSE) did not start within its timeout: the board
+        /// runs from the internal oscillator through the PLL at the same
+        /// 168 MHz; its time stamps and baud rate carry HSI's 1 % error.
+        ClockFallback = 23,
+        /// The PLL did not lock: the board runs at 16 MHz from HSI, in
+        /// safe mode (stopped, no tick, the link up).
+        ClockFailed = 24,
     }
     unknown => FrameError::UnknownCode
 }
 
 /// How many kinds of fault there are.
-pub const FAULT_KINDS: usize = 22;
+pub const FAULT_KINDS: usize = 24;
 
 codes! {
     /// The answer to a command (telemetry `Ack`): accepted, or why not.

@@ -7,6 +7,7 @@
 use firmware::protocol::Command;
 use firmware::record::{Flash, FlashError, Journal, Sector};
 use firmware::tasks::{Boot, Encoder, Imu, Motor, Program, Queues, Stats, Tuning, Watchdog};
+use firmware::uart_rx::SoftDma;
 use protocol::MAX_FRAME;
 
 /// NOR flash in memory (programs only clear bits; erases set them), with
@@ -118,6 +119,9 @@ pub struct HostBoard {
     pub program: &'static mut Program<'static>,
     /// Their counters.
     pub stats: &'static Stats,
+    /// The receive ring the UART's bytes go into (as under QEMU: the
+    /// board's DMA writes the same ring).
+    pub rx: &'static SoftDma,
     /// The flash.
     pub flash: NorFlash,
     /// The watchdog.
@@ -155,10 +159,22 @@ impl HostBoard {
     /// log's verdict `resets` (its cause the reset's).
     pub fn boot(
         tuning: Tuning,
+        flash: NorFlash,
+        now_us: u64,
+        imu_ok: Result<(), firmware::faults::Fault>,
+        resets: firmware::resets::BootVerdict,
+    ) -> Self {
+        Self::boot_clocked(tuning, flash, now_us, imu_ok, resets, Ok(()))
+    }
+
+    /// [`Self::boot`] with the clock tree's start (`firmware::clocks`).
+    pub fn boot_clocked(
+        tuning: Tuning,
         mut flash: NorFlash,
         now_us: u64,
         imu_ok: Result<(), firmware::faults::Fault>,
         resets: firmware::resets::BootVerdict,
+        clock: Result<(), firmware::faults::Fault>,
     ) -> Self {
         let queues: &'static mut Queues = Box::leak(Box::new(Queues::new()));
         let stats: &'static Stats = Box::leak(Box::default());
@@ -174,6 +190,7 @@ impl HostBoard {
                 reset: resets.cause,
                 imu: imu_ok,
                 tuning,
+                clock,
                 resets,
             },
         )
@@ -181,6 +198,7 @@ impl HostBoard {
         Self {
             program,
             stats,
+            rx: Box::leak(Box::default()),
             flash,
             wdg: CountingWatchdog::default(),
             mcu_us: now_us,
@@ -195,7 +213,7 @@ impl HostBoard {
     /// Bytes arriving at the board's UART.
     pub fn receive(&mut self, bytes: &[u8]) {
         for b in bytes {
-            self.program.uart.received(*b, false, self.stats);
+            self.rx.write(*b);
         }
     }
 
@@ -229,10 +247,13 @@ impl HostBoard {
     pub fn link_due(&mut self) {
         while self.mcu_us >= self.next_link_us {
             self.next_link_us += 10_000;
-            let out =
-                self.program
-                    .link
-                    .run(self.mcu_us, &mut self.flash, &mut self.wdg, self.stats);
+            let out = self.program.link.run(
+                self.mcu_us,
+                self.rx,
+                &mut self.flash,
+                &mut self.wdg,
+                self.stats,
+            );
             self.motor_off = out.motor_off;
             self.healthy |= out.healthy;
             while let Some(b) = self.program.uart.next_tx() {

@@ -419,6 +419,52 @@ fn a_hard_faults_registers_are_reported_after_the_reset() {
     assert_eq!((v.fault, v.in_row), (None, 0));
 }
 
+#[test]
+fn a_dead_crystal_or_pll_is_reported_and_a_dead_pll_stops_the_board() {
+    use protocol::Fault;
+    let t = firmware::tuning::board();
+    let power_on = firmware::resets::BootVerdict {
+        cause: protocol::ResetCause::PowerOn,
+        ..Default::default()
+    };
+    // The crystal silent: HSI through the PLL, the board runs, told once.
+    let mut b = HostBoard::boot_clocked(
+        t,
+        NorFlash::new(4096),
+        0,
+        Ok(()),
+        power_on,
+        Err(Fault::ClockFallback),
+    );
+    b.program.link.sensors_later();
+    b.idle(2_000_000);
+    assert!(b.program.link.sensors());
+    let f = faults_sent(&b.sent);
+    assert_eq!(
+        f.iter().filter(|x| x.0 == Fault::ClockFallback).count(),
+        1,
+        "{f:?}"
+    );
+    // The PLL unlocked: 16 MHz, stopped with the link up, told once, fed.
+    let mut b = HostBoard::boot_clocked(
+        t,
+        NorFlash::new(4096),
+        0,
+        Ok(()),
+        power_on,
+        Err(Fault::ClockFailed),
+    );
+    assert!(!b.program.link.sensors());
+    assert_eq!(until_watchdog(&mut b, 5_000_000), None);
+    let f = faults_sent(&b.sent);
+    assert_eq!(
+        f.iter().filter(|x| x.0 == Fault::ClockFailed).count(),
+        1,
+        "{f:?}"
+    );
+    assert!(!f.iter().any(|x| x.0 == Fault::ImuTimeout), "{f:?}");
+}
+
 /// The acks the board sent: (seq, status).
 fn acks_sent(bytes: &[u8]) -> Vec<(u16, protocol::Status)> {
     telemetry_sent(bytes)
