@@ -1,8 +1,10 @@
 //! # rins firmware
 //!
 //! `no_std`, no heap, no panics: the board's program, tested on the host
-//! through `hal-sim` and under QEMU; the binary (`main.rs`, RTIC 2) only
-//! wires the STM32F405's peripherals to it.
+//! through `hal-sim` and under QEMU. On the target the library also holds
+//! [`app`] (the RTIC 2 app: the tasks bound to their interrupts) and
+//! [`bsp`] (the board's peripherals, or QEMU's with the `qemu` feature);
+//! the binaries (`src/bin/`) hold only their panic handlers.
 //!
 //! - [`tasks`]: the scheduling (what runs at which priority, the queues
 //!   between the tasks), generic over the peripherals.
@@ -39,6 +41,11 @@
     )
 )]
 
+#[cfg(target_os = "none")]
+#[allow(missing_docs)] // RTIC's generated items
+pub mod app;
+#[cfg(target_os = "none")]
+pub mod bsp;
 pub mod calibration;
 pub mod clock;
 pub mod clocks;

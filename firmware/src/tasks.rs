@@ -238,8 +238,8 @@ pub struct Boot {
     pub imu: Result<(), Fault>,
     /// The compiled-in tuning.
     pub tuning: Tuning,
-    /// How the clock tree started (`crate::clocks`): `Err` the fallback's
-    /// fault ([`Fault::ClockFailed`]: a stopped board that reports).
+    /// How the clock tree started (`crate::clocks`): `Err` why the board
+    /// runs at 16 MHz from HSI (a stopped board that reports).
     pub clock: Result<(), Fault>,
     /// The reset log's word on this boot (`crate::resets`): resets in a
     /// row, a HardFault's registers, safe mode.
@@ -281,14 +281,12 @@ impl<'a> Program<'a> {
         let (nav_out_p, nav_out_c) = queues.nav_out.split();
         // Safe mode: a board that reset itself too often in a row boots
         // as one whose IMU did not answer: stopped, no tick, the link up.
-        // A PLL that did not lock leaves 16 MHz: navigation does not fit,
-        // so the same stopped board.
+        // A clock tree left at 16 MHz: navigation does not fit, so the
+        // same stopped board.
         let imu = if boot.resets.safe_mode {
             Err(Fault::ResetLoop)
-        } else if boot.clock == Err(Fault::ClockFailed) {
-            Err(Fault::ClockFailed)
         } else {
-            boot.imu
+            boot.clock.and(boot.imu)
         };
         let mem = NavMemory {
             ws: &mut queues.ws,
@@ -343,7 +341,8 @@ impl<'a> Program<'a> {
                 fault: Fault::HardFault,
                 count: 1,
             }),
-            // (A clock that failed is told below, as the stopped board's.)
+            // (A clock that failed is told below, as the stopped board's,
+            // unless safe mode's reset loop is.)
             boot.clock
                 .err()
                 .filter(|f| imu != Err(*f))

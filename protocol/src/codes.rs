@@ -115,13 +115,12 @@ codes! {
         /// The last reset came from a HardFault: its registers are in the
         /// boot report (`Telemetry::Boot`).
         HardFault = 22,
-        /// The crystal (HSE) did not start within its timeout: the board
-        /// runs from the internal oscillator through the PLL at the same
-        /// 168 MHz; its time stamps and baud rate carry HSI's 1 % error.
-        ClockFallback = 23,
-        /// The PLL did not lock: the board runs at 16 MHz from HSI, in
-        /// safe mode (stopped, no tick, the link up).
-        ClockFailed = 24,
+        /// The crystal (HSE) did not start within 100 ms: the board runs
+        /// at 16 MHz from HSI, in safe mode (stopped, no tick, the link
+        /// up; 921,600 baud 2.1 % fast).
+        HseFailed = 23,
+        /// The PLL did not lock within 100 ms: as [`Fault::HseFailed`].
+        PllFailed = 24,
     }
     unknown => FrameError::UnknownCode
 }

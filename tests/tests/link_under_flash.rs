@@ -29,7 +29,7 @@ const BYTE_NS: u64 = 10_851;
 const WORD_NS: u64 = 100_000;
 /// The link task's period, ns.
 const LINK_NS: u64 = 10_000_000;
-/// The board's receive ring (`hw_board.rs`), bytes.
+/// The board's receive ring (`firmware/src/bsp/board.rs`), bytes.
 const RING: u32 = 2048;
 
 /// The host's bytes, byte `k` complete at `(k + 1) * BYTE_NS`.

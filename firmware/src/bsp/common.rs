@@ -4,12 +4,12 @@
 //! paint. Register-level (the PAC): QEMU has no RCC, so the HAL's
 //! drivers, which need frozen clocks, are for the board's own file.
 
-use firmware::tasks::{Stats, UartEnds};
+use crate::tasks::{Stats, UartEnds};
 use stm32f4xx_hal::pac::{self, Interrupt, NVIC};
 
 /// Every task's counters.
 pub static STATS: Stats = Stats {
-    progress: firmware::watchdog::Progress {
+    progress: crate::watchdog::Progress {
         tick: core::sync::atomic::AtomicU32::new(0),
         nav: core::sync::atomic::AtomicU32::new(0),
         link: core::sync::atomic::AtomicU32::new(0),
@@ -33,14 +33,15 @@ pub static STATS: Stats = Stats {
 
 /// The peripherals set up, as `init` hands them to the tasks: the timers
 /// and the USART both builds share, and each build's IMU, encoder, motor,
-/// flash and watchdog (`hw_board.rs`: the chip's; `hw_qemu.rs`: the
+/// flash and watchdog (`bsp::board`: the chip's; `bsp::qemu`: the
 /// replay's and RAM's).
 pub struct Parts<Imu, Enc, Mot, Fl, Wdg> {
     /// The 64-bit clock's counter.
     pub tim5: pac::TIM5,
     /// The link task's timer.
     pub tim3: pac::TIM3,
-    /// The QEMU build's data-ready stand-in (never started on the board).
+    /// The QEMU build's data-ready stand-in.
+    #[cfg(feature = "qemu")]
     pub tim2: pac::TIM2,
     /// The telemetry UART (the Feather's TX/RX pins; QEMU's third `-serial`).
     pub usart: pac::USART3,
@@ -55,10 +56,10 @@ pub struct Parts<Imu, Enc, Mot, Fl, Wdg> {
     /// The watchdog (not started).
     pub wdg: Wdg,
     /// Whether the IMU came up (`Err`: a stopped board that reports).
-    pub imu_status: Result<(), firmware::faults::Fault>,
-    /// How the clock tree started (`firmware::clocks`; `Err`: a
+    pub imu_status: Result<(), crate::faults::Fault>,
+    /// How the clock tree started (`crate::clocks`; `Err`: a
     /// fallback, reported).
-    pub clock_status: Result<(), firmware::faults::Fault>,
+    pub clock_status: Result<(), crate::faults::Fault>,
 }
 
 /// The telemetry link's baud rate.
@@ -114,7 +115,7 @@ pub fn stack_peak() -> u32 {
 }
 
 /// TIM5 as a free-running 32-bit counter at 1 MHz from `start` (the
-/// clock's 64-bit extension is `firmware::clock::Clock64`).
+/// clock's 64-bit extension is `crate::clock::Clock64`).
 pub fn start_clock(tim5: &pac::TIM5, timer_hz: u32, start: u32) {
     // SAFETY: plain register writes (prescaler, reload, counter, enable).
     unsafe {
@@ -151,14 +152,9 @@ macro_rules! periodic {
     };
 }
 periodic!(start_tim3, pac::TIM3);
-// TIM2 drives the QEMU build's data-ready stand-in; the board never starts it.
-#[allow(dead_code)]
-mod tim2 {
-    use super::pac;
-    periodic!(start_tim2, pac::TIM2);
-}
-#[allow(unused_imports)]
-pub use tim2::start_tim2;
+// TIM2 drives the QEMU build's data-ready stand-in.
+#[cfg(feature = "qemu")]
+periodic!(start_tim2, pac::TIM2);
 
 /// Clears TIM3's update flag.
 pub fn clear_tim3(t: &pac::TIM3) {
@@ -167,13 +163,14 @@ pub fn clear_tim3(t: &pac::TIM3) {
 }
 
 /// Clears TIM2's update flag.
+#[cfg(feature = "qemu")]
 pub fn clear_tim2(t: &pac::TIM2) {
     // SAFETY: writing 0 clears the flags.
     t.sr().write(|w| unsafe { w.bits(0) });
 }
 
 /// USART3: 8N1 at [`BAUD`] from `apb1_hz`; received bytes by the receive
-/// interrupt (`rx_irq`: the QEMU build, into [`firmware::uart_rx::SoftDma`])
+/// interrupt (`rx_irq`: the QEMU build, into [`crate::uart_rx::SoftDma`])
 /// or by DMA (the board's `start_rx_dma`). The transmit interrupt is
 /// turned on when bytes are queued.
 pub fn start_usart(u: &pac::USART3, apb1_hz: u32, rx_irq: bool) {
@@ -201,7 +198,7 @@ pub fn start_usart(u: &pac::USART3, apb1_hz: u32, rx_irq: bool) {
 pub fn usart_service(
     u: &mut pac::USART3,
     q: &mut UartEnds<'static>,
-    soft: Option<&firmware::uart_rx::SoftDma>,
+    soft: Option<&crate::uart_rx::SoftDma>,
     stats: &Stats,
 ) -> u32 {
     let sr = u.sr().read().bits();
@@ -273,6 +270,7 @@ pub fn enable_interrupts(imu: bool) {
         NVIC::unmask(Interrupt::DMA1_STREAM1);
         NVIC::unmask(Interrupt::SPI3);
         NVIC::unmask(Interrupt::TIM3);
+        #[cfg(feature = "qemu")]
         NVIC::unmask(Interrupt::TIM2);
         let exti = &*pac::EXTI::ptr();
         if imu {
@@ -295,7 +293,7 @@ pub fn reset_cause(rcc: &pac::RCC) -> protocol_codes::ResetCause {
 }
 
 /// The protocol's codes.
-pub use firmware::protocol::codes as protocol_codes;
+pub use crate::protocol::codes as protocol_codes;
 
 /// The IWDG and the timers stop while a debugger halts the core, and the
 /// debug clocks keep running in sleep (`wfi` in idle would stop RTT and
@@ -318,17 +316,17 @@ pub fn tick_pending() -> bool {
     NVIC::is_pending(Interrupt::EXTI4)
 }
 
-/// The reset log (`firmware::resets`) in RAM the startup code does not
+/// The reset log (`crate::resets`) in RAM the startup code does not
 /// zero (cortex-m-rt's `.uninit` section): what the last run left.
 #[link_section = ".uninit.rins_reset_log"]
-static mut RESET_LOG: core::mem::MaybeUninit<firmware::resets::ResetLog> =
+static mut RESET_LOG: core::mem::MaybeUninit<crate::resets::ResetLog> =
     core::mem::MaybeUninit::uninit();
 
 /// Reads, changes and writes back the reset log. Volatile: the RAM holds
 /// what the last run wrote (or noise after a power-on, which the log's
 /// check word refuses); every bit pattern is a value of its `u32` fields.
-fn with_reset_log<R>(f: impl FnOnce(&mut firmware::resets::ResetLog) -> R) -> R {
-    let p = core::ptr::addr_of_mut!(RESET_LOG).cast::<firmware::resets::ResetLog>();
+fn with_reset_log<R>(f: impl FnOnce(&mut crate::resets::ResetLog) -> R) -> R {
+    let p = core::ptr::addr_of_mut!(RESET_LOG).cast::<crate::resets::ResetLog>();
     // SAFETY: called from `init` (interrupts off), from the link task (the
     // only task that touches it) and from the HardFault handler, which
     // resets the chip and never returns to the task it preempted.
@@ -342,13 +340,13 @@ fn with_reset_log<R>(f: impl FnOnce(&mut firmware::resets::ResetLog) -> R) -> R 
 
 /// At boot: this reset counted, and the verdict (resets in a row, safe
 /// mode, a HardFault's registers).
-pub fn reset_verdict(cause: protocol_codes::ResetCause) -> firmware::resets::BootVerdict {
+pub fn reset_verdict(cause: protocol_codes::ResetCause) -> crate::resets::BootVerdict {
     with_reset_log(|l| l.boot(cause))
 }
 
 /// The board ran healthily: the row of resets is over.
 pub fn reset_healthy() {
-    with_reset_log(firmware::resets::ResetLog::healthy);
+    with_reset_log(crate::resets::ResetLog::healthy);
 }
 
 /// A HardFault: its registers kept for the next boot's report, then a
@@ -359,7 +357,7 @@ unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
     // SAFETY: SCB's fault status and address registers are read-only
     // status here (ARMv7-M B3.2.15-B3.2.18).
     let scb = unsafe { &*cortex_m::peripheral::SCB::PTR };
-    let regs = firmware::resets::FaultRegs {
+    let regs = crate::resets::FaultRegs {
         cfsr: scb.cfsr.read(),
         hfsr: scb.hfsr.read(),
         mmfar: scb.mmfar.read(),

@@ -1,6 +1,6 @@
 //! The firmware's QEMU build (`cargo qemu`; `qemu-system-arm -M
-//! netduinoplus2 -icount shift=0`): the board's RTIC app (`rtic_app.rs`)
-//! with the sensors QEMU lacks replayed (`hw_qemu.rs`); commands and GNSS
+//! netduinoplus2 -icount shift=0`): the board's RTIC app (`firmware::app`)
+//! with the sensors QEMU lacks replayed (`firmware::bsp::qemu`); commands and GNSS
 //! fixes come through the emulated USART3 from `rins record`. It prints
 //! the budgets, the stack's peak and the outcome against the host twin's,
 //! `N passed, M failed`, and exits with the result.
@@ -22,22 +22,7 @@ fn panic(_: &core::panic::PanicInfo) -> ! {
     }
 }
 
+// The app (with the QEMU harness: the `qemu` feature), its interrupt
+// handlers and `main` are the library's.
 #[cfg(target_os = "none")]
-#[path = "../logger.rs"]
-mod logger;
-
-#[cfg(target_os = "none")]
-#[path = "../hw_qemu.rs"]
-mod hw;
-
-#[cfg(target_os = "none")]
-#[path = "../report.rs"]
-mod report;
-
-#[cfg(target_os = "none")]
-#[path = "../profile.rs"]
-mod profile;
-
-#[cfg(target_os = "none")]
-#[path = "../rtic_app.rs"]
-mod rtic_app;
+use firmware as _;

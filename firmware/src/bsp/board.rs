@@ -16,17 +16,15 @@
 //! driver's PWM to its pad, or move the PWM to TIM8 CH1 on PC6 (the
 //! book's Hardware chapter, `docs/src/hardware.md`).
 
-#[path = "hw_common.rs"]
-mod common;
-pub use common::*;
+pub use super::common::*;
 
+use crate::faults::Fault;
+use crate::icm42688::{Config, Icm42688};
+use crate::record::{Flash, FlashError, Sector, F405_SECTORS};
+use crate::tasks::{Encoder, Motor, Tuning, Watchdog};
 use embedded_hal::delay::DelayNs;
 use embedded_hal_02::Qei as _;
 use embedded_hal_bus::spi::ExclusiveDevice;
-use firmware::faults::Fault;
-use firmware::icm42688::{Config, Icm42688};
-use firmware::record::{Flash, FlashError, Sector, F405_SECTORS};
-use firmware::tasks::{Encoder, Motor, Tuning, Watchdog};
 use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
 use stm32f4xx_hal::pac::{self, FLASH, SPI1, TIM1, TIM4};
 use stm32f4xx_hal::prelude::*;
@@ -59,22 +57,22 @@ impl DelayNs for CycleDelay {
     }
 }
 
-/// RCC's start-up flags (RM0090 7.3.1, 7.3.2) for `firmware::clocks`.
+/// RCC's start-up flags (RM0090 7.3.1, 7.3.2) for `crate::clocks`.
 struct Rcc<'a>(&'a pac::RCC);
 
-impl firmware::ports::ClockControl for Rcc<'_> {
+impl crate::ports::ClockControl for Rcc<'_> {
     fn hse_on(&mut self, on: bool) {
         self.0.cr().modify(|_, w| w.hseon().bit(on));
     }
     fn hse_ready(&mut self) -> bool {
         self.0.cr().read().hserdy().bit_is_set()
     }
-    fn pll_configure(&mut self, src: firmware::ports::ClockSource) {
+    fn pll_configure(&mut self, src: crate::ports::ClockSource) {
         // 2 MHz into the VCO (M), 336 MHz out of it (N = 168), 168 MHz
         // system (P = 2), 48 MHz for USB (Q = 7); PLLSRC bit 22.
         let (m, hse) = match src {
-            firmware::ports::ClockSource::Hse => (HSE_HZ / 2_000_000, 1),
-            firmware::ports::ClockSource::Hsi => (16_000_000 / 2_000_000, 0),
+            crate::ports::ClockSource::Hse => (HSE_HZ / 2_000_000, 1),
+            crate::ports::ClockSource::Hsi => (16_000_000 / 2_000_000, 0),
         };
         // SAFETY: the PLL is off (PLLCFGR is written only then).
         self.0
@@ -89,27 +87,28 @@ impl firmware::ports::ClockControl for Rcc<'_> {
     }
 }
 
-/// The clock tree started with every wait bounded (`firmware::clocks`),
-/// then set by the HAL from the source that was found to start (its own
-/// waits then return at once: the same parts just started).
+/// The clock tree started with every wait bounded (`crate::clocks`),
+/// then set by the HAL for the crystal (its own waits then return at once:
+/// the same parts just started), or left at HSI's 16 MHz (the reset
+/// state) when a part did not start.
 fn start_clocks(rcc: pac::RCC) -> (stm32f4xx_hal::rcc::Rcc, Result<(), Fault>) {
-    let plan = firmware::clocks::plan(&mut Rcc(&rcc), firmware::clocks::START_POLLS);
-    let cfg = match plan {
-        firmware::clocks::Plan::Hse168 => RccConfig::hse(HSE_HZ.Hz()),
-        _ => RccConfig::hsi(),
+    let plan = crate::clocks::plan(&mut Rcc(&rcc), crate::clocks::START_POLLS);
+    let rcc = match plan {
+        crate::clocks::Plan::Hse168 => rcc.freeze(
+            RccConfig::hse(HSE_HZ.Hz())
+                .sysclk(SYSCLK_HZ.Hz())
+                .pclk1(APB1_HZ.Hz()),
+        ),
+        crate::clocks::Plan::Hsi16(_) => rcc.constrain(),
     };
-    let cfg = match plan {
-        firmware::clocks::Plan::Hsi16 => cfg,
-        _ => cfg.sysclk(SYSCLK_HZ.Hz()).pclk1(APB1_HZ.Hz()),
-    };
-    (rcc.freeze(cfg), plan.status())
+    (rcc, plan.status())
 }
 
 /// The IMU (absent when it did not come up: the tick never runs).
 pub struct BoardImu(Option<Icm42688<ImuSpi>>);
-impl firmware::tasks::Imu for BoardImu {
-    fn read(&mut self) -> firmware::tasks::Reading {
-        self.0.as_mut().ok_or(firmware::tasks::BusError)?.read()
+impl crate::tasks::Imu for BoardImu {
+    fn read(&mut self) -> crate::tasks::Reading {
+        self.0.as_mut().ok_or(crate::tasks::BusError)?.read()
     }
 }
 
@@ -312,9 +311,7 @@ impl Board {
                 let mut imu = Icm42688::new(dev);
                 match imu.init(Config::default(), &mut CycleDelay(sysclk / 1_000_000)) {
                     Ok(()) => (Some(imu), Ok(())),
-                    Err(firmware::icm42688::Error::WrongDevice(_)) => {
-                        (None, Err(Fault::WrongDevice))
-                    }
+                    Err(crate::icm42688::Error::WrongDevice(_)) => (None, Err(Fault::WrongDevice)),
                     Err(_) => (None, Err(Fault::ImuInitFailed)),
                 }
             }
@@ -329,7 +326,6 @@ impl Board {
         Self {
             tim5: dp.TIM5,
             tim3: dp.TIM3,
-            tim2: dp.TIM2,
             usart: dp.USART3,
             motor: BoardMotor { pwm, dir },
             imu: BoardImu(imu),
@@ -349,7 +345,7 @@ pub fn clock_start(_tim5: &pac::TIM5) -> u32 {
 
 /// The compiled-in tuning: the ICM-42688-P's filter noise model.
 pub fn tuning() -> Tuning {
-    firmware::tuning::board()
+    crate::tuning::board()
 }
 
 /// Turns DWT's cycle counter on (the tasks' worst cases).
@@ -382,31 +378,9 @@ pub fn halt(why: &str) -> ! {
     }
 }
 
-/// The board has no replay.
-pub fn replay_done() -> bool {
-    false
-}
-
-/// The board adds no stress.
-pub fn stress() -> bool {
-    false
-}
-
-/// The board runs no overrun probe: every tick is a real one.
-pub fn overrun_probe() -> bool {
-    false
-}
-
-/// Nothing after navigation on the board.
-pub fn after_nav(_: &mut firmware::tasks::NavTask<'static>) {}
-
-/// The board's IMU edges come from the end of `init`: the supervision
-/// expects them from boot.
-pub fn sensors_at_init(_: &mut firmware::tasks::LinkTask<'static>) {}
-
 /// After each link run: the stack's peak to the log once a minute (a
 /// probe reads it; the QEMU build prints it).
-pub fn after_link(_: &mut firmware::tasks::LinkTask<'static>) {
+pub fn after_link(_: &mut crate::tasks::LinkTask<'static>) {
     static RUNS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
     if RUNS
         .fetch_add(1, core::sync::atomic::Ordering::Relaxed)
@@ -421,14 +395,6 @@ pub fn after_link(_: &mut firmware::tasks::LinkTask<'static>) {
         defmt::info!("stack peak: {=u32} bytes", peak);
     }
 }
-
-/// TIM2 never runs on the board.
-pub fn sensors_on() -> bool {
-    false
-}
-
-/// TIM2 never runs on the board.
-pub fn count_edge() {}
 
 /// The receive ring's length, bytes: 22 ms at 921,600 baud, twice the
 /// link task's period (the book's firmware chapter has the margins).
@@ -501,7 +467,7 @@ pub fn rx_dma_event() {
 /// The receive ring as the link task reads it.
 pub struct BoardRx;
 
-impl firmware::ports::RxDma for BoardRx {
+impl crate::ports::RxDma for BoardRx {
     const LEN: u32 = RX_LEN;
     fn halves(&self) -> u32 {
         RX_HALVES.load(core::sync::atomic::Ordering::Acquire)
@@ -528,6 +494,6 @@ pub fn rx() -> &'static BoardRx {
 }
 
 /// No software ring on the board: the DMA receives.
-pub fn rx_soft() -> Option<&'static firmware::uart_rx::SoftDma> {
+pub fn rx_soft() -> Option<&'static crate::uart_rx::SoftDma> {
     None
 }

@@ -1,6 +1,6 @@
 //! The QEMU build's peripherals (`qemu-system-arm -M netduinoplus2
 //! -icount shift=0`): what QEMU 7.2 models (USART3, TIM2-5, EXTI, NVIC,
-//! SysTick) is the board's code (`hw_common.rs`); what it lacks is
+//! SysTick) is the board's code (`bsp::common`); what it lacks is
 //! replaced here and said so:
 //!
 //! - the IMU and the encoder: a replay (`target/qemu/current.bin`, made by
@@ -19,20 +19,21 @@
 //! budgets, the stack's peak, the link, the outcome against the host's)
 //! and exits with its result.
 
-#[path = "hw_common.rs"]
-mod common;
-pub use common::*;
+pub use super::common::*;
 
+mod profile;
+mod report;
+
+use crate::record::{Flash, FlashError, Sector};
+use crate::replay::{
+    decode, decode_outcome, record_body, Event, Header, Sensors, HEADER, RECORD_HEAD, RECORD_MAX,
+    TRAILER,
+};
+use crate::tasks::{Encoder, Imu, LinkTask, Motor, NavTask, Tuning, Watchdog};
 use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use cortex_m::interrupt::Mutex;
 use cortex_m_semihosting::{debug, hprintln, syscall};
-use firmware::record::{Flash, FlashError, Sector};
-use firmware::replay::{
-    decode, decode_outcome, record_body, Event, Header, Sensors, HEADER, RECORD_HEAD, RECORD_MAX,
-    TRAILER,
-};
-use firmware::tasks::{Encoder, Imu, LinkTask, Motor, NavTask, Tuning, Watchdog};
 use stm32f4xx_hal::pac;
 
 /// QEMU's timer input clock (its STM32F405 model's TIM2-5: 1 GHz).
@@ -41,7 +42,7 @@ pub const TIMER_HZ: u32 = 1_000_000_000;
 /// replay crosses it.
 pub const CLOCK_START: u32 = u32::MAX - 1_500_000;
 /// The journal's model (the host twin's too): two 2 KiB sectors of RAM.
-pub const JOURNAL: [Sector; 2] = firmware::record::MODEL_SECTORS;
+pub const JOURNAL: [Sector; 2] = crate::record::MODEL_SECTORS;
 /// The replay the runner put in place.
 const REPLAY: &[u8] = b"target/qemu/current.bin\0";
 /// Navigation runs that get the stress's extra work: 100 of them, while
@@ -111,14 +112,14 @@ impl BoardImu {
 }
 
 impl Imu for BoardImu {
-    fn read(&mut self) -> firmware::tasks::Reading {
+    fn read(&mut self) -> crate::tasks::Reading {
         let i = self.reads;
         self.reads += 1;
         let mut s = self.sensors;
         let more = s.advance(i, &mut || self.next(), &mut |_e| {});
         self.sensors = s;
         HW_COUNT.store(
-            u32::from(firmware::tasks::Encoder::count(&mut self.sensors)),
+            u32::from(crate::tasks::Encoder::count(&mut self.sensors)),
             Ordering::Relaxed,
         );
         if !more {
@@ -209,7 +210,7 @@ impl Board {
             fail("bad replay header");
         };
         NEED_COMMANDS.store(header.commands, Ordering::Relaxed);
-        let t = firmware::replay::tuning(&header, firmware::tuning::board());
+        let t = crate::replay::tuning(&header, crate::tuning::board());
         cortex_m::interrupt::free(|cs| *TUNING.borrow(cs).borrow_mut() = Some(t));
         start_usart(&dp.USART3, 42_000_000, true);
         start_clock(&dp.TIM5, TIMER_HZ, CLOCK_START);
@@ -247,8 +248,7 @@ pub fn clock_start(_tim5: &pac::TIM5) -> u32 {
 
 /// The replay's tuning.
 pub fn tuning() -> Tuning {
-    cortex_m::interrupt::free(|cs| *TUNING.borrow(cs).borrow())
-        .unwrap_or_else(firmware::tuning::board)
+    cortex_m::interrupt::free(|cs| *TUNING.borrow(cs).borrow()).unwrap_or_else(crate::tuning::board)
 }
 
 /// SysTick free-running over its 24 bits at the core clock.
@@ -406,7 +406,7 @@ pub fn after_nav(nav: &mut NavTask<'static>) {
     };
     let host = cortex_m::interrupt::free(|cs| *TRAILER_BYTES.borrow(cs).borrow())
         .map(|t| decode_outcome(&t));
-    crate::report::report(nav, &harness, host, stack);
+    report::report(nav, &harness, host, stack);
 }
 
 /// The QEMU harness's own counts.
@@ -428,15 +428,15 @@ pub struct Harness {
 
 /// The receive ring where QEMU's USART interrupt writes (QEMU 7.2 models
 /// no DMA on the STM32F405): the same ring reader as the board's.
-static RX_SOFT: firmware::uart_rx::SoftDma = firmware::uart_rx::SoftDma::new();
+static RX_SOFT: crate::uart_rx::SoftDma = crate::uart_rx::SoftDma::new();
 
 /// The receive ring (the USART interrupt's).
-pub fn rx() -> &'static firmware::uart_rx::SoftDma {
+pub fn rx() -> &'static crate::uart_rx::SoftDma {
     &RX_SOFT
 }
 
 /// The USART interrupt writes the ring.
-pub fn rx_soft() -> Option<&'static firmware::uart_rx::SoftDma> {
+pub fn rx_soft() -> Option<&'static crate::uart_rx::SoftDma> {
     Some(&RX_SOFT)
 }
 

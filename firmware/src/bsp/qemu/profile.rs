@@ -2,14 +2,14 @@
 //! (`name: N instructions`), interrupts masked: what a navigation run and
 //! a tick are made of. `core-nav step` is the budget CI checks (<= 3,000).
 
-use crate::hw;
+use super as hw;
+use crate::navigation::Navigator;
+use crate::protocol::{Telemetry, MAX_FRAME};
 use core_nav::calib::PhaseAccumulator;
 use core_nav::control::{MotorModel, RateController};
 use core_nav::scheme::Reference;
 use core_nav::table::{Axis, TableAngle};
 use cortex_m_semihosting::hprintln;
-use firmware::navigation::Navigator;
-use firmware::protocol::{Telemetry, MAX_FRAME};
 use nalgebra::Vector3;
 
 fn count<R>(f: impl FnOnce() -> R) -> u32 {

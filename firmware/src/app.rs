@@ -1,17 +1,18 @@
 //! The board's RTIC 2 app: the peripherals wired to the program in
-//! `firmware::tasks`, with the tasks and priorities it names. Both
-//! binaries are this app: `main.rs` with the board's peripherals
-//! (`hw_board.rs`), `bin/qemu.rs` with the sensors QEMU lacks replayed, the
-//! clock set-up skipped (QEMU has no RCC model) and the QEMU test's report
-//! (`hw_qemu.rs`). The USART, the timers, the interrupts, the tasks and
-//! their priorities are the same code in both (`hw_common.rs`).
+//! `crate::tasks`, with the tasks and priorities it names, on `bsp::hw`:
+//! the board's peripherals (`bsp::board`), or with the `qemu` feature the
+//! sensors QEMU lacks replayed, the clock set-up skipped (QEMU has no RCC
+//! model) and the QEMU test's harness (`bsp::qemu`; its data-ready
+//! stand-in, TIM2 at priority 5, and its probes exist only there). The
+//! USART, the timers, the interrupts, the tasks and their priorities are
+//! the same code in both (`bsp::common`).
 
 #[rtic::app(device = stm32f4xx_hal::pac, peripherals = true)]
 mod app {
-    use crate::hw;
+    use crate::bsp::hw;
+    use crate::record::Journal;
+    use crate::tasks::{Boot, LinkTask, NavTask, Program, Queues, Stats, TickTask, UartEnds};
     use core::sync::atomic::Ordering;
-    use firmware::record::Journal;
-    use firmware::tasks::{Boot, LinkTask, NavTask, Program, Queues, Stats, TickTask, UartEnds};
     use stm32f4xx_hal::pac::{self, Interrupt};
 
     #[shared]
@@ -32,9 +33,10 @@ mod app {
         encoder: hw::BoardEncoder,
         flash: hw::BoardFlash,
         wdg: hw::BoardWatchdog,
-        clock_tick: firmware::clock::Clock64,
-        clock_link: firmware::clock::Clock64,
+        clock_tick: crate::clock::Clock64,
+        clock_link: crate::clock::Clock64,
         tim3: pac::TIM3,
+        #[cfg(feature = "qemu")]
         tim2: pac::TIM2,
     }
 
@@ -87,6 +89,7 @@ mod app {
             link,
             uart,
         } = program;
+        #[cfg(feature = "qemu")]
         hw::sensors_at_init(link);
         let mut wdg = board.wdg;
         wdg.start();
@@ -105,9 +108,10 @@ mod app {
                 encoder: board.encoder,
                 flash,
                 wdg,
-                clock_tick: firmware::clock::Clock64::new(start),
-                clock_link: firmware::clock::Clock64::new(start),
+                clock_tick: crate::clock::Clock64::new(start),
+                clock_link: crate::clock::Clock64::new(start),
                 tim3: board.tim3,
+                #[cfg(feature = "qemu")]
                 tim2: board.tim2,
             },
         )
@@ -147,16 +151,20 @@ mod app {
         hw::clear_data_ready();
         let now = cx.local.clock_tick.extend(hw::clock_now());
         // The QEMU build's overrun probe (after its replay) stalls here
-        // past the next edge instead of running the tick; never on the
-        // board.
+        // past the next edge instead of running the tick.
+        #[cfg(feature = "qemu")]
         let probe = hw::overrun_probe();
+        #[cfg(not(feature = "qemu"))]
+        let probe = false;
         if !probe {
             let (tick, imu, enc) = (cx.local.tick, cx.local.imu, cx.local.encoder);
             let pend = cx
                 .shared
                 .motor
                 .lock(|m| tick.run(now, imu, enc, m, &hw::STATS));
-            if pend || hw::replay_done() {
+            #[cfg(feature = "qemu")]
+            let pend = pend || hw::replay_done();
+            if pend {
                 rtic::pend(Interrupt::SPI3);
             }
         }
@@ -173,10 +181,15 @@ mod app {
     fn nav(cx: nav::Context) {
         let c0 = hw::cycles();
         cx.local.nav.run(&hw::STATS);
+        // The QEMU build's stress adds work to some runs (not counted).
+        #[cfg(feature = "qemu")]
         let stressed = hw::stress();
+        #[cfg(not(feature = "qemu"))]
+        let stressed = false;
         if !stressed {
             Stats::worst(&hw::STATS.nav_worst, hw::since(c0));
         }
+        #[cfg(feature = "qemu")]
         hw::after_nav(cx.local.nav);
     }
 
@@ -195,9 +208,7 @@ mod app {
             hw::reset_healthy();
         }
         if out.motor_off {
-            cx.shared
-                .motor
-                .lock(|m| firmware::tasks::Motor::set(m, 0.0));
+            cx.shared.motor.lock(|m| crate::tasks::Motor::set(m, 0.0));
         }
         if out.tx_pending {
             cx.shared.usart.lock(hw::listen_tx);
@@ -207,8 +218,9 @@ mod app {
     }
 
     /// The QEMU build's stand-in for the IMU's data-ready line: 1 kHz from
-    /// TIM2 (priority 5, as an edge on a pin would be). On the board TIM2
-    /// is never started and this never runs.
+    /// TIM2 (priority 5, as an edge on a pin would be). Not in the board's
+    /// build.
+    #[cfg(feature = "qemu")]
     #[task(binds = TIM2, priority = 5, local = [tim2])]
     fn data_ready(cx: data_ready::Context) {
         hw::clear_tim2(cx.local.tim2);
