@@ -110,7 +110,7 @@ pub struct Sector {
 /// The receive side of the telemetry UART: a ring the hardware writes on
 /// its own (the STM32F405's DMA1 stream 1, channel 4, USART3_RX, RM0090
 /// table 42, circular), so that no byte waits for the CPU, which stalls on
-/// every flash fetch while a word is programmed. [`crate::uart_rx::RxRing`]
+/// every flash fetch while a word is programmed. The `uart_rx` module's `RxRing`
 /// reads it.
 pub trait RxDma {
     /// The ring's length, bytes (even).
@@ -137,7 +137,7 @@ pub enum ClockSource {
 }
 
 /// The reset and clock controller's start-up flags (RCC_CR, RCC_PLLCFGR),
-/// for [`crate::clocks::plan`].
+/// for the `clocks` module's start.
 pub trait ClockControl {
     /// The crystal's oscillator on or off (HSEON).
     fn hse_on(&mut self, on: bool);

@@ -430,8 +430,7 @@ fn a_dead_crystal_or_pll_is_reported_and_stops_the_board() {
     // A dead crystal or an unlocked PLL: 16 MHz from HSI, stopped with the
     // link up, told once, fed.
     for why in [Fault::HseFailed, Fault::PllFailed] {
-        let mut b =
-            HostBoard::boot_clocked(t, NorFlash::new(4096), 0, Ok(()), power_on, Err(why));
+        let mut b = HostBoard::boot_clocked(t, NorFlash::new(4096), 0, Ok(()), power_on, Err(why));
         assert!(!b.program.link.sensors());
         assert_eq!(until_watchdog(&mut b, 5_000_000), None);
         let f = faults_sent(&b.sent);
