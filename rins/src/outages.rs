@@ -191,16 +191,7 @@ pub fn merge(parts: Vec<OutageStudy>) -> Result<OutageStudy> {
 fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveResult> {
     let rec =
         simulate(&config(kind, imu, rotary, seed), &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
-    let opt = AidedOptions {
-        profile: imu.clone(),
-        zupt: true,
-        gate_sigma: 6.0,
-        f32: false,
-        outages: vec![],
-        floor: Default::default(),
-        gnss_velocity: true,
-        time_offset_s: 0.0,
-    };
+    let opt = AidedOptions::new(imu.clone());
     let run = aided::navigate(&rec, &opt, &mut |_| {})?;
     let s = aided::summary(&rec, &run);
     // Match each planned outage to the gap that contains its start.
@@ -337,20 +328,7 @@ pub fn plots(
     for rotary in [false, true] {
         let rec =
             simulate(&config(kind, imu, rotary, seed), &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
-        let run = aided::navigate(
-            &rec,
-            &AidedOptions {
-                profile: imu.clone(),
-                zupt: true,
-                gate_sigma: 6.0,
-                f32: false,
-                outages: vec![],
-                floor: Default::default(),
-                gnss_velocity: true,
-                time_offset_s: 0.0,
-            },
-            &mut |_| {},
-        )?;
+        let run = aided::navigate(&rec, &AidedOptions::new(imu.clone()), &mut |_| {})?;
         let truth = rec
             .moving
             .as_ref()

@@ -69,14 +69,8 @@ pub fn build(rec: &Recording, counts_per_rev: u32) -> Result<Replay> {
     {
         let (mv, gnss) = g;
         let opt = crate::aided::AidedOptions {
-            profile: crate::aided::profile(rec, None)?,
-            zupt: true,
-            gate_sigma: 6.0,
             f32: true,
-            outages: vec![],
-            floor: Default::default(),
-            gnss_velocity: true,
-            time_offset_s: 0.0,
+            ..crate::aided::AidedOptions::new(crate::aided::profile(rec, None)?)
         };
         let lever = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
         header.aided = Some((

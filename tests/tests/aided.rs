@@ -16,16 +16,7 @@ use rins_tests::board::{HostBoard, NorFlash};
 use rins_tests::twin::{self, TwinOptions, TwinRun};
 
 fn opts(p: &ImuSpec) -> AidedOptions {
-    AidedOptions {
-        profile: p.clone(),
-        zupt: true,
-        gate_sigma: 6.0,
-        f32: false,
-        outages: vec![],
-        floor: Default::default(),
-        gnss_velocity: true,
-        time_offset_s: 0.0,
-    }
+    AidedOptions::new(p.clone())
 }
 
 /// `rins navigate --gnss --f32`: the board's arithmetic.

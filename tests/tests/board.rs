@@ -156,14 +156,8 @@ fn the_boards_filter_is_the_icm42688_profiles() {
     // firmware::tuning writes the numbers rins derives from hal-sim's
     // icm42688 profile (the board cannot depend on the host's crates).
     let o = rins::aided::AidedOptions {
-        profile: hal_sim::imu::ImuSpec::icm42688(),
-        zupt: true,
-        gate_sigma: 6.0,
         f32: true,
-        outages: vec![],
-        floor: Default::default(),
-        gnss_velocity: true,
-        time_offset_s: 0.0,
+        ..rins::aided::AidedOptions::new(hal_sim::imu::ImuSpec::icm42688())
     };
     let enc = core_nav::table::EncoderScale::new(
         firmware::control::ControlConfig::default().counts_per_rev,

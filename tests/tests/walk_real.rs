@@ -60,14 +60,8 @@ fn a_tag_file_of_another_stream_is_refused() {
 
 fn opts(outages: Vec<(f64, f64)>) -> AidedOptions {
     AidedOptions {
-        profile: hal_sim::sensor::resolve("icm42605").unwrap(),
-        zupt: true,
-        gate_sigma: 6.0,
-        f32: false,
         outages,
-        floor: Default::default(),
-        gnss_velocity: true,
-        time_offset_s: 0.0,
+        ..AidedOptions::new(hal_sim::sensor::resolve("icm42605").unwrap())
     }
 }
 

@@ -59,6 +59,29 @@ pub struct AidedOptions {
     pub time_offset_s: f64,
 }
 
+/// The innovation gate the CLI and the tools use unless told, sigmas.
+pub const GATE_SIGMA: f64 = 6.0;
+
+impl AidedOptions {
+    /// The options every tool starts from: `profile`'s noise model,
+    /// zero-velocity updates, the [`GATE_SIGMA`] gate, f64, no outages,
+    /// the default receiver floors, the fixes' velocity, no time offset.
+    /// A caller changes what differs (`AidedOptions { f32: true,
+    /// ..AidedOptions::new(p) }`).
+    pub fn new(profile: ImuSpec) -> Self {
+        Self {
+            profile,
+            zupt: true,
+            gate_sigma: GATE_SIGMA,
+            f32: false,
+            outages: vec![],
+            floor: ReceiverFloor::default(),
+            gnss_velocity: true,
+            time_offset_s: 0.0,
+        }
+    }
+}
+
 /// The least horizontal 1-sigma (m) a fix of each solution type is taken
 /// with (vertical: twice it): receivers report cm-level sigmas even while
 /// their carrier solution is float. A fix without a solution type is

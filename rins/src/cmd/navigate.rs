@@ -82,7 +82,7 @@ pub struct Args {
     pub gnss_floor_m: Option<Vec<f64>>,
     /// The innovation gate, sigmas (a fix component farther off is
     /// rejected and counted).
-    #[arg(long, default_value_t = 6.0, requires = "gnss")]
+    #[arg(long, default_value_t = rins::aided::GATE_SIGMA, requires = "gnss")]
     pub gate_sigma: f64,
     /// Use only the fixes' positions (not their velocity).
     #[arg(long, requires = "gnss")]
