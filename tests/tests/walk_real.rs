@@ -136,6 +136,44 @@ fn the_walk_is_never_lost_after_its_outages() {
 }
 
 #[test]
+fn a_re_initialisation_is_named_as_its_outages_error() {
+    // A new user's case: two 20 s outages at 30 s and 70 s; the filter
+    // comes back by re-initialising from the fixes the gate refused.
+    let (rec, _) = rtklib(&input()).unwrap();
+    let run = navigate(&rec, &opts(vec![(30.0, 20.0), (70.0, 20.0)]), &mut |_| {}).unwrap();
+    let s = summary(&rec, &run);
+    print!("{}", s.text());
+    assert_eq!(s.reinit_at.len(), run.reinits as usize);
+    for o in &s.outages {
+        // Each outage that left metres is ended by a re-initialisation,
+        // named as its own, whose jump is the error the withheld fixes
+        // measured at its end (independently of the jump): within 15 %,
+        // the error's growth in the half second the gate took.
+        let end = o.end_error_m.unwrap();
+        if end < 5.0 {
+            continue;
+        }
+        let r = s
+            .reinit_at
+            .iter()
+            .find(|r| r.after_outage == Some([o.start_s, o.len_s]))
+            .unwrap_or_else(|| panic!("no re-initialisation named for {o:?}: {:?}", s.reinit_at));
+        assert!((r.jump_m - end).abs() < 0.15 * end, "{r:?} against {o:?}");
+        assert!(r.t_s - (o.start_s + o.len_s) < 5.0, "{r:?}");
+    }
+    // The rms with GNSS is made by those stretches: without them it is the
+    // receiver's (RTK, cm to dm).
+    let (all, settled) = (
+        s.h_rms_with_gnss_m.unwrap(),
+        s.h_rms_with_gnss_settled_m.unwrap(),
+    );
+    assert!(all > 1.0 && settled < 0.2, "{all} {settled}");
+    assert!(s
+        .text()
+        .contains("the error the outage at 30 s for 20 s left"));
+}
+
+#[test]
 fn the_imu_to_gnss_offset_is_found_where_origin_md_measured_it() {
     let (rec, r) = rtklib(&input()).unwrap();
     // The regular clock: ORIGIN.md's sensor period 9.95 ms, first

@@ -206,6 +206,10 @@ pub struct AidedRun {
     pub aligned: Option<align::Alignment>,
     /// The outages cut in: (start s, length s).
     pub outages_cut: Vec<(f64, f64)>,
+    /// Each re-initialisation: (time s, the horizontal jump it made, m:
+    /// the position after it less the one the step before would have
+    /// reached at its velocity).
+    pub reinit_at: Vec<(f64, f64)>,
 }
 
 /// The fixes the filter gets: those outside the outages cut in, each at
@@ -415,6 +419,7 @@ fn navigate_t<T: Real>(
             an.gnss(&f.to_fix());
         }
         let mut step = AidedStep::default();
+        let reinits_before = an.counts.reinits;
         if k > 0 {
             match an.step(&sample(k), &table(t), T::lit(track.at(t).rate)) {
                 Ok(s) => step = s,
@@ -461,6 +466,9 @@ fn navigate_t<T: Real>(
             still: step.still,
             zupt: step.zupt,
         });
+        if an.counts.reinits > reinits_before {
+            run.reinit_at.push((t, reinit_jump_m(&run.rows)));
+        }
         // NEES once a second against the truth over every state the
         // trajectory reports but height (north, east, the three
         // velocities, the attitude's rotation error `phi` about north,
@@ -516,6 +524,19 @@ fn navigate_t<T: Real>(
     run.outages_cut = opt.outages.clone();
     progress(1.0);
     Ok(run)
+}
+
+/// The horizontal jump (m) between the last two rows: the last one's
+/// position less where the one before would have reached at its velocity.
+fn reinit_jump_m(rows: &[AidedRow]) -> f64 {
+    match rows {
+        [.., a, b] => {
+            let dt = b.traj.t_s - a.traj.t_s;
+            let d = |i: usize| b.traj.ned_m[i] - (a.traj.ned_m[i] + a.traj.v_mps[i] * dt);
+            d(0).hypot(d(1))
+        }
+        _ => 0.0,
+    }
 }
 
 /// The aided navigator's settings for a sensor profile, table axis and

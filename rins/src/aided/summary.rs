@@ -18,6 +18,14 @@ pub struct AidedSummary {
     pub run_span_s: Option<[f64; 2]>,
     /// Horizontal error rms while fixes arrive, m (with truth).
     pub h_rms_with_gnss_m: Option<f64>,
+    /// The same without the stretches from an outage's end to the
+    /// re-initialisation that ended it (the gate refusing the returning
+    /// fixes: the outage's error, not the receiver's), m; `None` when no
+    /// re-initialisation followed an outage.
+    pub h_rms_with_gnss_settled_m: Option<f64>,
+    /// Each re-initialisation: when, the jump it made, and the outage
+    /// whose error it took out (the last one that ended before it).
+    pub reinit_at: Vec<ReinitError>,
     /// Per GNSS gap longer than 2 fix intervals: start s, length s,
     /// horizontal error at its end and its largest, m (with truth), and the
     /// filter's horizontal 1-sigma at its end, m.
@@ -66,6 +74,18 @@ fn zupt_spans(run: &AidedRun) -> Vec<(f64, f64, u32)> {
         }
     }
     spans
+}
+
+/// A re-initialisation and what it took out.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct ReinitError {
+    /// When, s.
+    pub t_s: f64,
+    /// The horizontal jump it made, m.
+    pub jump_m: f64,
+    /// The outage that ended last before it: start s, length s (`None`:
+    /// none did; the filter was lost with fixes arriving).
+    pub after_outage: Option<[f64; 2]>,
 }
 
 /// One outage's errors.
@@ -234,6 +254,46 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     if !sq.is_empty() {
         s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
     }
+    s.reinit_at = run
+        .reinit_at
+        .iter()
+        .map(|&(t_s, jump_m)| ReinitError {
+            t_s,
+            jump_m,
+            after_outage: s
+                .outages
+                .iter()
+                .filter(|o| o.start_s + o.len_s <= t_s)
+                .map(|o| [o.start_s, o.len_s])
+                .reduce(|a, b| if b[0] > a[0] { b } else { a }),
+        })
+        .collect();
+    // The recovery stretches: an outage's end to its re-initialisation.
+    let recovering: Vec<[f64; 2]> = s
+        .reinit_at
+        .iter()
+        .filter_map(|r| r.after_outage.map(|[a, l]| [a + l, r.t_s]))
+        .collect();
+    if !recovering.is_empty() {
+        let mut sq = vec![];
+        for w in fix_rows.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            if run.rows[b].traj.t_s - run.rows[a].traj.t_s <= 2.0 / rate {
+                sq.extend(
+                    (a..b)
+                        .filter(|i| {
+                            let t = run.rows[*i].traj.t_s;
+                            !recovering.iter().any(|[x, y]| t >= *x && t <= *y)
+                        })
+                        .filter_map(h_err)
+                        .map(|e| e * e),
+                );
+            }
+        }
+        if !sq.is_empty() {
+            s.h_rms_with_gnss_settled_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
+        }
+    }
     let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
     if !used.is_empty() {
         let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
@@ -290,7 +350,13 @@ impl AidedSummary {
             }
         );
         if let Some(h) = self.h_rms_with_gnss_m {
-            o += &format!("horizontal error with GNSS: {h:.2} m rms\n");
+            o += &format!("horizontal error with GNSS: {h:.2} m rms");
+            if let Some(s) = self.h_rms_with_gnss_settled_m {
+                o += &format!(
+                    " ({s:.2} m without the stretches from an outage's end to its re-initialisation: the outage's error, below)"
+                );
+            }
+            o += "\n";
         }
         for g in &self.outages {
             o += &format!(
@@ -319,6 +385,18 @@ impl AidedSummary {
             "zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
             self.zupts, self.zarus, self.rejected, self.refused, self.faults, self.reinits
         );
+        for r in &self.reinit_at {
+            o += &match r.after_outage {
+                Some([a, l]) => format!(
+                    "  re-initialised from the fixes at {:.1} s: a {:.2} m jump, the error the outage at {a:.0} s for {l:.0} s left (the gate refused the returning fixes until then)\n",
+                    r.t_s, r.jump_m
+                ),
+                None => format!(
+                    "  re-initialised from the fixes at {:.1} s: a {:.2} m jump, with fixes arriving\n",
+                    r.t_s, r.jump_m
+                ),
+            };
+        }
         if !self.zupt_spans.is_empty() {
             let shown: Vec<String> = self
                 .zupt_spans
