@@ -296,6 +296,30 @@ pub struct AidedCounts {
     pub reinits: u32,
 }
 
+/// The aided navigator's solution at a sample ([`AidedNav::solution`]):
+/// the base's attitude, position and velocity and their 1-sigma.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Solution<T: Real> {
+    /// The sample's time, µs.
+    pub t_us: u64,
+    /// The base's attitude `q_b_n` (the table's turn taken out).
+    pub q_b_n: Quaternion<T>,
+    /// Roll, pitch, heading of `b` in `n` (ZYX), rad.
+    pub euler: crate::attitude::Euler<T>,
+    /// Position offsets from the origin, north, east, down (curvilinear,
+    /// as [`crate::strapdown::NavState::p_n`]), m.
+    pub p_n: Vector3<T>,
+    /// Velocity, NED, m/s.
+    pub v_n: Vector3<T>,
+    /// Position 1-sigma, north, east, down, m.
+    pub sigma_p_m: [T; 3],
+    /// Velocity 1-sigma, NED, m/s.
+    pub sigma_v_mps: [T; 3],
+    /// Roll, pitch, heading 1-sigma, rad
+    /// ([`crate::attitude::euler_sigma`]).
+    pub sigma_euler_rad: [T; 3],
+}
+
 /// What one step did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct AidedStep<T: Real> {
@@ -704,6 +728,32 @@ impl<T: Real> AidedNav<T> {
     /// The vehicle's attitude `c_b_n` with the table at `table`.
     pub fn c_b_n(&self, table: &TableAngle<T>) -> Matrix3<T> {
         quat_to_dcm(&self.nav.state().q_s_n) * c_s_b(self.cfg.axis, table).transpose()
+    }
+
+    /// The navigator's own solution with the table at `table`: what the
+    /// CLI writes and the board sends, from one place.
+    pub fn solution(&self, table: &TableAngle<T>) -> Solution<T> {
+        let st = self.nav.state();
+        let q_b_n = crate::table::q_b_n(&st.q_s_n, self.cfg.axis, table.rad);
+        let euler = crate::attitude::quat_to_euler(&q_b_n);
+        let sig = |i: usize| [self.kf.sigma(i), self.kf.sigma(i + 1), self.kf.sigma(i + 2)];
+        let p_phi = Matrix3::from_fn(|r, c| {
+            self.kf
+                .p
+                .get((crate::eskf::I_PHI + r, crate::eskf::I_PHI + c))
+                .copied()
+                .unwrap_or_else(T::zero)
+        });
+        Solution {
+            t_us: st.t_us,
+            q_b_n,
+            euler,
+            p_n: st.p_n,
+            v_n: st.v_n,
+            sigma_p_m: sig(crate::eskf::I_P),
+            sigma_v_mps: sig(crate::eskf::I_V),
+            sigma_euler_rad: crate::attitude::euler_sigma(&euler, &p_phi),
+        }
     }
 
     /// Hands a fix over; the next [`Self::step`] uses it as valid at that

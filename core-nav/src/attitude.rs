@@ -223,9 +223,60 @@ pub fn skew<T: Real>(v: &Vector3<T>) -> Matrix3<T> {
     )
 }
 
+/// The 1-sigma of roll, pitch and heading (rad) at `e` from the covariance
+/// `p_phi` (rad^2) of the small rotation `phi` about north, east and down
+/// that the aided filter carries (`c_b_n,true = (I + [phi x])
+/// c_b_n,est`). For ZYX angles a rotation in `n` is `phi = A d(roll,
+/// pitch, heading)` with `A`'s columns the roll axis `Rz(heading) Ry(pitch)
+/// x`, the pitch axis `Rz(heading) y` and down; so the angles' covariance
+/// is `A^-1 P A^-T` (singular only at pitch +-90 deg, where heading and
+/// roll are one angle: NaN there).
+pub fn euler_sigma<T: Real>(e: &Euler<T>, p_phi: &Matrix3<T>) -> [T; 3] {
+    let (st, ct) = sin_cos(e.pitch);
+    let (sp, cp) = sin_cos(e.heading);
+    let z = T::zero();
+    let a = Matrix3::new(cp * ct, -sp, z, sp * ct, cp, z, -st, z, T::one());
+    match a.try_inverse() {
+        Some(ai) => {
+            let c = ai * p_phi * ai.transpose();
+            [0, 1, 2].map(|i| c.get((i, i)).copied().unwrap_or(z).max(z).sqrt_cr())
+        }
+        None => [T::lit(f64::NAN); 3],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn euler_sigmas_follow_the_rotation_axes_closed_form() {
+        let s = 0.01f64; // rad
+        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
+        let e = |r: f64, p: f64, h: f64| Euler {
+            roll: r,
+            pitch: p,
+            heading: h,
+        };
+        // Level, heading north: roll about north, pitch about east.
+        let p = Matrix3::from_diagonal(&Vector3::new(s * s, 4.0 * s * s, 9.0 * s * s));
+        assert!(close(
+            euler_sigma(&e(0.0, 0.0, 0.0), &p),
+            [s, 2.0 * s, 3.0 * s]
+        ));
+        // Heading east: roll about east, pitch about south.
+        let east = euler_sigma(&e(0.0, 0.0, 90f64.to_radians()), &p);
+        assert!(close(east, [2.0 * s, s, 3.0 * s]), "{east:?}");
+        // Pitched 30 deg up, heading north: a rotation about north is
+        // roll / cos(30) and heading tan(30) (roll's axis leans out of the
+        // level plane); one about down is heading alone.
+        let th = 30f64.to_radians();
+        let pn = Matrix3::from_diagonal(&Vector3::new(s * s, 0.0, 0.0));
+        let got = euler_sigma(&e(0.0, th, 0.0), &pn);
+        assert!(close(got, [s / th.cos(), 0.0, s * th.tan()]), "{got:?}");
+        let pd = Matrix3::from_diagonal(&Vector3::new(0.0, 0.0, s * s));
+        assert!(close(euler_sigma(&e(0.0, th, 0.0), &pd), [0.0, 0.0, s]));
+    }
 
     #[test]
     fn heading_90_maps_north_to_east() {

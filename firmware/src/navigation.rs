@@ -493,12 +493,19 @@ impl<'a> Navigator<'a> {
             Ok(st) => {
                 self.steps = self.steps.wrapping_add(1);
                 if self.steps.is_multiple_of(self.cfg.telemetry_every.max(1)) {
-                    let q = q_b_n(&st.q_s_n, Axis::Z, x.angle.rad);
+                    // Aided: the filter's own solution, the one the host's
+                    // `navigate --gnss` writes (core-nav's one function).
+                    let (q, v, p) = if self.stage == Stage::Aided {
+                        let s = self.aided.solution(&x.angle);
+                        (s.q_b_n, s.v_n, s.p_n)
+                    } else {
+                        (q_b_n(&st.q_s_n, Axis::Z, x.angle.rad), st.v_n, st.p_n)
+                    };
                     out(Outbound::Telemetry(Telemetry::Nav {
                         t_us: x.t_us,
                         q_b_n: [q.w, q.i, q.j, q.k],
-                        v_n: [st.v_n.x, st.v_n.y, st.v_n.z],
-                        p_n: [st.p_n.x, st.p_n.y, st.p_n.z],
+                        v_n: [v.x, v.y, v.z],
+                        p_n: [p.x, p.y, p.z],
                     }));
                 }
             }

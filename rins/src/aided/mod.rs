@@ -12,7 +12,7 @@
 
 use anyhow::{bail, Result};
 use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
-use core_nav::attitude::{dcm_to_quat, euler_to_quat, quat_to_dcm, quat_to_euler, Euler};
+use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
 use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
 use core_nav::real::Real;
 use core_nav::strapdown::ImuSample;
@@ -142,7 +142,7 @@ pub struct AidedRow {
     pub sigma_v_mps: [f64; 3],
     /// Attitude 1-sigma of roll, pitch and heading, deg (the filter's
     /// rotation error about north, east and down taken through the Euler
-    /// angles' Jacobian: [`euler_sigma_deg`]).
+    /// angles' Jacobian: `core_nav::attitude::euler_sigma`).
     pub sigma_att_deg: [f64; 3],
     /// A GNSS fix was used at this sample.
     pub fix: bool,
@@ -151,28 +151,6 @@ pub struct AidedRow {
     pub still: bool,
     /// A zero-velocity update was applied at this sample.
     pub zupt: bool,
-}
-
-/// The 1-sigma of roll, pitch and heading (deg) at `euler_rad` (roll,
-/// pitch, heading) from the covariance `p_phi` (rad^2) of the small
-/// rotation `phi` about north, east and down that the filter carries
-/// (`c_b_n,true = (I + [phi x]) c_b_n,est`). For ZYX angles a rotation in
-/// `n` is `phi = A d(roll, pitch, heading)` with `A`'s columns the roll
-/// axis `Rz(heading) Ry(pitch) x`, the pitch axis `Rz(heading) y` and
-/// down; so the angles' covariance is `A^-1 P A^-T` (singular only at
-/// pitch +-90 deg, where heading and roll are one angle: NaN there).
-pub fn euler_sigma_deg(euler_rad: [f64; 3], p_phi: &nalgebra::Matrix3<f64>) -> [f64; 3] {
-    let [_, th, psi] = euler_rad;
-    let (st, ct) = th.sin_cos();
-    let (sp, cp) = psi.sin_cos();
-    let a = nalgebra::Matrix3::new(cp * ct, -sp, 0.0, sp * ct, cp, 0.0, -st, 0.0, 1.0);
-    match a.try_inverse() {
-        Some(ai) => {
-            let c = ai * p_phi * ai.transpose();
-            [0, 1, 2].map(|i| c[(i, i)].max(0.0).sqrt().to_degrees())
-        }
-        None => [f64::NAN; 3],
-    }
 }
 
 /// A navigation run.
@@ -431,19 +409,19 @@ fn navigate_t<T: Real>(
         for (nis, used) in [step.fix, step.fix_velocity].into_iter().flatten() {
             run.nis.push((t, nis.to_f64(), used));
         }
-        let st = *an.nav().state();
-        let c_b_n = an.c_b_n(&table(t)).map(|x| x.to_f64());
-        let e = quat_to_euler(&dcm_to_quat(&c_b_n));
-        let ned = tangent.ned_to(&earth.point_at(&st.p_n));
-        let v_n = f64v(&st.v_n);
-        let kf = &an.kf;
-        let sig = |i: usize| {
-            [
-                kf.sigma(i).to_f64(),
-                kf.sigma(i + 1).to_f64(),
-                kf.sigma(i + 2).to_f64(),
-            ]
+        // The filter's own solution (the board sends the same), put on the
+        // tangent plane for the trajectory.
+        let sol = an.solution(&table(t));
+        let c_b_n = quat_to_dcm(&sol.q_b_n).map(|x| x.to_f64());
+        let e = Euler {
+            roll: sol.euler.roll.to_f64(),
+            pitch: sol.euler.pitch.to_f64(),
+            heading: sol.euler.heading.to_f64(),
         };
+        let ned = tangent.ned_to(&earth.point_at(&sol.p_n));
+        let v_n = f64v(&sol.v_n);
+        let f64s = |a: [T; 3]| a.map(|x| x.to_f64());
+        let kf = &an.kf;
         run.rows.push(AidedRow {
             traj: TrajRow {
                 t_s: t,
@@ -456,12 +434,9 @@ fn navigate_t<T: Real>(
                 ],
                 faults: an.counts.steps_refused,
             },
-            sigma_p_m: sig(I_P),
-            sigma_v_mps: sig(I_V),
-            sigma_att_deg: euler_sigma_deg(
-                [e.roll, e.pitch, e.heading],
-                &nalgebra::Matrix3::from_fn(|r, c| kf.p[(I_PHI + r, I_PHI + c)].to_f64()),
-            ),
+            sigma_p_m: f64s(sol.sigma_p_m),
+            sigma_v_mps: f64s(sol.sigma_v_mps),
+            sigma_att_deg: f64s(sol.sigma_euler_rad).map(f64::to_degrees),
             fix: step.fix.is_some(),
             still: step.still,
             zupt: step.zupt,
@@ -600,35 +575,4 @@ pub fn trajectory_csv(rows: &[AidedRow]) -> String {
         ));
     }
     s
-}
-
-#[cfg(test)]
-mod tests {
-    use super::euler_sigma_deg;
-    use nalgebra::Matrix3;
-
-    #[test]
-    fn euler_sigmas_follow_the_rotation_axes_closed_form() {
-        let s = 0.01f64; // rad
-        let deg = s.to_degrees();
-        let close = |a: [f64; 3], b: [f64; 3]| (0..3).all(|i| (a[i] - b[i]).abs() < 1e-12);
-        // Level, heading north: roll about north, pitch about east.
-        let p = Matrix3::from_diagonal(&nalgebra::Vector3::new(s * s, 4.0 * s * s, 9.0 * s * s));
-        assert!(close(
-            euler_sigma_deg([0.0; 3], &p),
-            [deg, 2.0 * deg, 3.0 * deg]
-        ));
-        // Heading east: roll about east, pitch about south.
-        let east = euler_sigma_deg([0.0, 0.0, 90f64.to_radians()], &p);
-        assert!(close(east, [2.0 * deg, deg, 3.0 * deg]), "{east:?}");
-        // Pitched 30 deg up, heading north: a rotation about north is
-        // roll / cos(30) and heading tan(30) (roll's axis leans out of the
-        // level plane); one about down is heading alone.
-        let th = 30f64.to_radians();
-        let pn = Matrix3::from_diagonal(&nalgebra::Vector3::new(s * s, 0.0, 0.0));
-        let got = euler_sigma_deg([0.0, th, 0.0], &pn);
-        assert!(close(got, [deg / th.cos(), 0.0, deg * th.tan()]), "{got:?}");
-        let pd = Matrix3::from_diagonal(&nalgebra::Vector3::new(0.0, 0.0, s * s));
-        assert!(close(euler_sigma_deg([0.0, th, 0.0], &pd), [0.0, 0.0, deg]));
-    }
 }
