@@ -4,9 +4,13 @@
 //! GNSS receiver (fixes of the antenna at its rate, noise, reported sigmas,
 //! outages).
 //!
-//! The vehicle is the base `b` (x forward, y right, z down), with no roll;
-//! its speed `s`, heading `psi` and pitch `theta` (from the road's grade)
-//! make `v_n = s (cos theta cos psi, cos theta sin psi, -sin theta)`. Its
+//! The vehicle `v` (x forward, y right, z down) has no roll; its speed
+//! `s`, heading `psi` and pitch `theta` (from the road's grade) make `v_n
+//! = s (cos theta cos psi, cos theta sin psi, -sin theta)`: it does not
+//! slide sideways or leave the road (what `core_nav::vehicle`'s
+//! constraints assume; a real car's sideslip is not simulated). The base
+//! `b` is mounted in it by `c_b_v` ([`mounting`]; the identity unless the
+//! drive says). Its
 //! controls (longitudinal acceleration, yaw rate) are piecewise constant
 //! with raised-cosine edges (continuous, so the specific force has no
 //! steps between samples); the grade is a sum of sines along the distance.
@@ -16,8 +20,9 @@
 //! physics):
 //!
 //! ```text
-//! w_ib_b = c_n_b (w_ie_n + w_en_n) + w_nb_b,  w_nb_b = (-psi' sin theta, theta', psi' cos theta)
-//! f_b    = c_n_b (v_n' + (2 w_ie_n + w_en_n) x v_n - g_n)
+//! w_iv_v = c_n_v (w_ie_n + w_en_n) + w_nv_v,  w_nv_v = (-psi' sin theta, theta', psi' cos theta)
+//! f_v    = c_n_v (v_n' + (2 w_ie_n + w_en_n) x v_n - g_n)
+//! w_ib_b = c_v_b w_iv_v,  f_b = c_v_b f_v
 //! w_is_s = c_b_s w_ib_b + theta_table' k,     f_s = c_b_s f_b
 //! ```
 //!
@@ -274,10 +279,13 @@ pub struct VehicleState {
     pub v_n: Vector3<f64>,
     /// Its time derivative, NED, m/s^2.
     pub a_n: Vector3<f64>,
-    /// Attitude of `b` in `n`: roll (0), pitch, heading, rad.
+    /// Attitude of the vehicle `v` in `n`: roll (0), pitch, heading, rad.
     pub euler_rad: [f64; 3],
-    /// Rate of `b` relative to `n`, in `b`, rad/s.
-    pub w_nb_b: Vector3<f64>,
+    /// Rate of `v` relative to `n`, in `v`, rad/s.
+    pub w_nv_v: Vector3<f64>,
+    /// The base's mounting in the vehicle, `c_b_v` (the identity unless
+    /// the drive says).
+    pub c_b_v: Matrix3<f64>,
     /// Speed along the road, m/s.
     pub speed_mps: f64,
     /// Distance driven, m.
@@ -285,14 +293,30 @@ pub struct VehicleState {
 }
 
 impl VehicleState {
-    /// `c_b_n`.
-    pub fn c_b_n(&self) -> Matrix3<f64> {
+    /// The vehicle's attitude, `c_v_n`.
+    pub fn c_v_n(&self) -> Matrix3<f64> {
         let [r, p, h] = self.euler_rad;
         core_nav::site::c_b_n(&Euler {
             roll: r,
             pitch: p,
             heading: h,
         })
+    }
+
+    /// The base's attitude, `c_b_n = c_v_n c_b_v`.
+    pub fn c_b_n(&self) -> Matrix3<f64> {
+        self.c_v_n() * self.c_b_v
+    }
+
+    /// The base's roll, pitch and heading (ZYX), rad.
+    pub fn base_euler_rad(&self) -> [f64; 3] {
+        let e = core_nav::attitude::dcm_to_euler(&self.c_b_n());
+        [e.roll, e.pitch, e.heading]
+    }
+
+    /// Rate of `b` relative to `n`, in `b`, rad/s.
+    pub fn w_nb_b(&self) -> Vector3<f64> {
+        self.c_b_v.transpose() * self.w_nv_v
     }
 
     /// What an ideal IMU with axes `b` at the table's centre reads:
@@ -303,19 +327,20 @@ impl VehicleState {
         let w_ie = earth_rate_n(s, c);
         let w_en = transport_rate_n(&self.v_n, r_m, r_n, self.pos.height_m, s / c);
         let g_n = Vector3::new(0.0, 0.0, normal_gravity(s * s, self.pos.height_m));
-        let c_n_b = self.c_b_n().transpose();
-        let w = c_n_b * (w_ie + w_en) + self.w_nb_b;
-        let f = c_n_b * (self.a_n + (w_ie * 2.0 + w_en).cross(&self.v_n) - g_n);
-        (w, f)
+        let c_n_v = self.c_v_n().transpose();
+        let w = c_n_v * (w_ie + w_en) + self.w_nv_v;
+        let f = c_n_v * (self.a_n + (w_ie * 2.0 + w_en).cross(&self.v_n) - g_n);
+        let c_v_b = self.c_b_v.transpose();
+        (c_v_b * w, c_v_b * f)
     }
 }
 
 /// The body's vibration while the vehicle moves, added to the specific
-/// force in `b` at `t_s` (m/s^2): road and engine modes at 13 and 27 Hz,
+/// force in `v` at `t_s` (m/s^2): road and engine modes at 13 and 27 Hz,
 /// 0.25 and 0.1 m/s^2 vertically, 0.08 and 0.03 along and across, scaled up
 /// with the speed to 3 m/s; none when parked. Oscillatory, so the
 /// velocity it implies stays within 4 mm/s (not part of the truth).
-pub fn vibration_b(t_s: f64, speed_mps: f64) -> Vector3<f64> {
+pub fn vibration_v(t_s: f64, speed_mps: f64) -> Vector3<f64> {
     let k = (speed_mps / 3.0).clamp(0.0, 1.0);
     if k == 0.0 {
         return Vector3::zeros();
@@ -325,17 +350,30 @@ pub fn vibration_b(t_s: f64, speed_mps: f64) -> Vector3<f64> {
     Vector3::new(0.08 * a + 0.03 * b, 0.03 * a - 0.08 * b, 0.25 * a + 0.1 * b) * k
 }
 
+/// The base's mounting in the vehicle, `c_b_v`, from its roll, pitch and
+/// yaw in the vehicle (ZYX, deg: as `[mounting] imu_to_base_deg`).
+pub fn mounting(roll_pitch_yaw_deg: [f64; 3]) -> Matrix3<f64> {
+    let [r, p, y] = roll_pitch_yaw_deg.map(f64::to_radians);
+    core_nav::site::c_b_n(&Euler {
+        roll: r,
+        pitch: p,
+        heading: y,
+    })
+}
+
 /// The vehicle integrated over a drive at a fixed step.
 #[derive(Clone, Debug)]
 pub struct Vehicle {
     drive: Drive,
     state: VehicleState,
     heading0: f64,
+    c_b_v: Matrix3<f64>,
 }
 
 impl Vehicle {
-    /// Parked at `origin`, heading `heading_deg`, at `t = 0`.
-    pub fn new(drive: Drive, origin: GeoPoint, heading_deg: f64) -> Self {
+    /// Parked at `origin`, heading `heading_deg`, at `t = 0`, the base
+    /// mounted in it by `c_b_v` ([`mounting`]).
+    pub fn new(drive: Drive, origin: GeoPoint, heading_deg: f64, c_b_v: Matrix3<f64>) -> Self {
         let mut v = Self {
             drive,
             state: VehicleState {
@@ -343,6 +381,7 @@ impl Vehicle {
                 ..VehicleState::default()
             },
             heading0: heading_deg.to_radians(),
+            c_b_v,
         };
         v.state = v.derived(0.0, origin, 0.0);
         v
@@ -377,7 +416,8 @@ impl Vehicle {
             v_n: u * speed,
             a_n: u * a + (du_dpsi * r + du_dth * th_dot) * speed,
             euler_rad: [0.0, th, psi.rem_euclid(std::f64::consts::TAU)],
-            w_nb_b: Vector3::new(-r * st, th_dot, r * ct),
+            w_nv_v: Vector3::new(-r * st, th_dot, r * ct),
+            c_b_v: self.c_b_v,
             speed_mps: speed,
             distance_m: distance,
         }
@@ -532,7 +572,7 @@ impl Receiver {
             lon_rad: p.lon_rad + d_n.y / (transverse(&p) * p.lat_rad.cos()),
             height_m: p.height_m - d_n.z,
         };
-        let v_ant = v.v_n + c_b_n * v.w_nb_b.cross(&sp.antenna_b_m);
+        let v_ant = v.v_n + c_b_n * v.w_nb_b().cross(&sp.antenna_b_m);
         Some(GnssFix {
             t_s: v.t_s,
             pos,

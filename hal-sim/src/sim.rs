@@ -82,6 +82,9 @@ pub struct DriveSpec {
     pub gnss: GnssSpec,
     /// Longitude of the start, deg.
     pub longitude_deg: f64,
+    /// The base's mounting in the vehicle: roll, pitch, yaw of `b` in
+    /// the vehicle's frame (ZYX), deg; zeros: the base is the vehicle.
+    pub mounting_deg: [f64; 3],
 }
 
 impl SimConfig {
@@ -503,6 +506,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             Drive::plan(d.kind, cfg.duration_s, cfg.seed),
             origin,
             heading_deg,
+            crate::drive::mounting(d.mounting_deg),
         )
     });
     let mut receiver = cfg
@@ -674,7 +678,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             let on_vehicle = |tt: f64| {
                 let v = veh_at(&veh_hist, tt)?;
                 let (w_b, f_b) = v.ideal_b();
-                let f_b = f_b + crate::drive::vibration_b(tt, v.speed_mps);
+                let f_b = f_b + v.c_b_v.transpose() * crate::drive::vibration_v(tt, v.speed_mps);
                 Some(scene.truth_on_vehicle(&fixed, &kin_at(tt), tt, &w_b, &f_b))
             };
             let truth = match (&kept, on_vehicle(t_true)) {
@@ -693,7 +697,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             w += cfg.geometry.axis.unit::<f64>() * cfg.untracked.rate(&mut untracked, rate, imu_dt);
             if let Some(v) = veh_at(&veh_hist, t_k) {
                 let d = tangent.ned_to(&v.pos);
-                let [r, p, h] = v.euler_rad;
+                let [r, p, h] = v.base_euler_rad();
                 truth_rows.push(TruthRow {
                     t_s: t_k,
                     p_n_m: [d.x, d.y, d.z],
@@ -850,7 +854,7 @@ fn veh_at(h: &VecDeque<VehicleState>, t: f64) -> Option<VehicleState> {
     v.t_s = a.t_s + u * (b.t_s - a.t_s);
     v.v_n = a.v_n + (b.v_n - a.v_n) * u;
     v.a_n = a.a_n + (b.a_n - a.a_n) * u;
-    v.w_nb_b = a.w_nb_b + (b.w_nb_b - a.w_nb_b) * u;
+    v.w_nv_v = a.w_nv_v + (b.w_nv_v - a.w_nv_v) * u;
     v.pos.lat_rad = a.pos.lat_rad + u * (b.pos.lat_rad - a.pos.lat_rad);
     v.pos.lon_rad = a.pos.lon_rad + u * (b.pos.lon_rad - a.pos.lon_rad);
     v.pos.height_m = a.pos.height_m + u * (b.pos.height_m - a.pos.height_m);

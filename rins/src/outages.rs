@@ -97,6 +97,7 @@ pub fn config_with(
             ..GnssSpec::default()
         },
         longitude_deg: 114.35,
+        mounting_deg: [0.0; 3],
     });
     c
 }

@@ -80,6 +80,17 @@ pub struct Args {
     /// Longitude of the start, deg (moving base).
     #[arg(long, default_value_t = 114.35, requires = "drive")]
     pub lon_deg: f64,
+    /// The IMU's base mounted in the vehicle: roll, pitch, yaw, deg (ZYX;
+    /// the recording's b is then not the vehicle: `navigate --vehicle
+    /// car` finds it).
+    #[arg(
+        long,
+        value_name = "R,P,Y",
+        value_delimiter = ',',
+        allow_hyphen_values = true,
+        requires = "drive"
+    )]
+    pub mounting_deg: Vec<f64>,
     /// Re-simulate this recording's own run (its sample times, encoder
     /// reads, temperatures, site and base) with the sensor of `--sim-model`:
     /// its twin. The scheme, site, sensor and drive flags are refused with
@@ -88,7 +99,7 @@ pub struct Args {
         "ideal", "effects", "list_effects", "sensor", "scheme", "axis", "rate_dps",
         "duration_s", "static_s", "lat_deg", "height_m", "heading_deg", "pitch_deg",
         "roll_deg", "gravity_mps2", "turns", "positions", "dwell_s", "drive",
-        "gnss_outages", "lon_deg",
+        "gnss_outages", "lon_deg", "mounting_deg",
     ])]
     pub like: Option<PathBuf>,
     /// The sensor model for `--like` (`rins-sim-model/1` TOML, as `rins
@@ -215,6 +226,16 @@ impl Args {
                 kind,
                 gnss,
                 longitude_deg: self.lon_deg,
+                mounting_deg: match self.mounting_deg.as_slice() {
+                    [] => [0.0; 3],
+                    [r, p, y] => [*r, *p, *y],
+                    m => {
+                        return Err(anyhow!(
+                            "--mounting-deg takes R,P,Y: three values, not {}",
+                            m.len()
+                        ))
+                    }
+                },
             });
         }
         for e in &self.effects {
