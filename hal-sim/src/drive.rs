@@ -614,7 +614,12 @@ mod tests {
     fn a_plan_integrates_to_its_speeds_and_stops() {
         for kind in [DriveKind::City, DriveKind::Highway] {
             let d = Drive::plan(kind, 600.0, 3);
-            let mut v = Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 45.0);
+            let mut v = Vehicle::new(
+                d,
+                GeoPoint::from_deg(30.5, 114.3, 20.0),
+                45.0,
+                Matrix3::identity(),
+            );
             let mut vmax: f64 = 0.0;
             let mut stops = 0;
             let mut prev = 0.0;
@@ -648,7 +653,13 @@ mod tests {
         };
         let mut r = Receiver::new(spec, 1);
         let d = Drive::plan(DriveKind::City, 600.0, 3);
-        let mut state = *Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 0.0).state();
+        let mut state = *Vehicle::new(
+            d,
+            GeoPoint::from_deg(30.5, 114.3, 20.0),
+            0.0,
+            Matrix3::identity(),
+        )
+        .state();
         let mut kept = vec![];
         for k in 295..=365u32 {
             let epoch = f64::from(k);
