@@ -677,7 +677,12 @@ mod tests {
         // a_n is v_n's derivative: central differences over 1 ms, to 1e-3
         // m/s^2 (the midpoint rule's error at the raised-cosine edges).
         let d = Drive::plan(DriveKind::City, 300.0, 5);
-        let mut v = Vehicle::new(d, GeoPoint::from_deg(30.5, 114.3, 20.0), 10.0);
+        let mut v = Vehicle::new(
+            d,
+            GeoPoint::from_deg(30.5, 114.3, 20.0),
+            10.0,
+            Matrix3::identity(),
+        );
         let mut prev = *v.state();
         v.step(1e-3);
         let mut cur = *v.state();
