@@ -720,6 +720,15 @@ impl<T: Real> AidedNav<T> {
         Ok(())
     }
 
+    /// The base's rotation at the last sample, the table's and the
+    /// estimated errors taken out, rad/s in `b`.
+    pub fn w_ib_b(&self) -> Vector3<T> {
+        let last = (self.past_head + HISTORY - 1) % HISTORY;
+        self.past
+            .get(last)
+            .map_or_else(Vector3::zeros, |p| p.w_ib_b)
+    }
+
     /// The mechanization (its state: position offsets, velocity, `q_s_n`).
     pub fn nav(&self) -> &Strapdown<T> {
         &self.nav
@@ -754,6 +763,49 @@ impl<T: Real> AidedNav<T> {
             sigma_v_mps: sig(crate::eskf::I_V),
             sigma_euler_rad: crate::attitude::euler_sigma(&euler, &p_phi),
         }
+    }
+
+    /// Measurements of the base's velocity along unit vectors of `b`
+    /// (a vehicle's constraints and odometer, [`crate::vehicle`]) at the
+    /// current sample, the table at `table`: each `(e_b, value m/s,
+    /// 1-sigma m/s)`, a scalar update through the gate, then the
+    /// correction fed back. Made between [`Self::step`]s by a host; the
+    /// board does not call it.
+    ///
+    /// # Errors
+    /// A non-finite value or a sigma not positive (counted by the filter;
+    /// the measurements before it are kept).
+    pub fn update_base_velocity(
+        &mut self,
+        table: &TableAngle<T>,
+        m: &[(Vector3<T>, T, T)],
+    ) -> Result<crate::eskf::UpdateReport<T>, FilterError> {
+        let c_b_n = self.c_b_n(table);
+        let v_n = self.nav.state().v_n;
+        let mut rep = crate::eskf::UpdateReport::default();
+        let mut err = None;
+        for (e_b, value, sigma) in m {
+            let (h, z) = crate::vehicle::velocity_b_row(e_b, *value, &c_b_n, &v_n);
+            match self.kf.update_scalar(&h, z, *sigma * *sigma) {
+                Ok(Some(nis)) => {
+                    rep.nis += nis;
+                    rep.used += 1;
+                }
+                Ok(None) => rep.rejected += 1,
+                Err(e) => {
+                    err = Some(e);
+                    break;
+                }
+            }
+        }
+        let (dp, dv, phi) = self.kf.take_correction();
+        if self.vel_next {
+            self.vel_next_z -= dv;
+        }
+        if self.nav.correct(&dp, &dv, &phi).is_err() {
+            self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
+        }
+        err.map_or(Ok(rep), Err)
     }
 
     /// Hands a fix over; the next [`Self::step`] uses it as valid at that

@@ -73,6 +73,7 @@ pub mod stats;
 pub mod strapdown;
 pub mod table;
 pub mod units;
+pub mod vehicle;
 
 pub use error::NavError;
 pub use real::Real;

@@ -26,6 +26,7 @@ pub mod results;
 pub mod sensor_file;
 pub mod shard;
 pub mod ubx;
+pub mod vehicle_study;
 
 /// A job's progress, measured in thousandths: on a terminal a bar with
 /// the time spent and an estimate of the time left; elsewhere (a log, CI)

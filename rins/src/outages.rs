@@ -81,6 +81,19 @@ pub fn config_with(
     seed: u64,
     outages: &[(f64, f64)],
 ) -> SimConfig {
+    config_mounted(kind, imu, rotary, seed, outages, [0.0; 3])
+}
+
+/// [`config_with`] with the base mounted in the vehicle at roll, pitch,
+/// yaw `mounting_deg` (deg).
+pub fn config_mounted(
+    kind: DriveKind,
+    imu: &ImuSpec,
+    rotary: bool,
+    seed: u64,
+    outages: &[(f64, f64)],
+    mounting_deg: [f64; 3],
+) -> SimConfig {
     let mut c = SimConfig::new(imu.clone(), Axis::Z, DRIVE_S);
     c.scheme = if rotary {
         Scheme::Continuous {
@@ -97,7 +110,7 @@ pub fn config_with(
             ..GnssSpec::default()
         },
         longitude_deg: 114.35,
-        mounting_deg: [0.0; 3],
+        mounting_deg,
     });
     c
 }

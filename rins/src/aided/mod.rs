@@ -30,6 +30,7 @@ pub mod offset;
 mod plots;
 pub mod span;
 mod summary;
+pub mod vehicle;
 pub use plots::{fixes_en, fixless, plots};
 pub use summary::{chi2_95_bounds, summary, AidedSummary, OutageError};
 
@@ -57,6 +58,8 @@ pub struct AidedOptions {
     /// the receiver's `t` is taken at the IMU's `t + offset`
     /// ([`offset::estimate`] finds it).
     pub time_offset_s: f64,
+    /// The vehicle's constraints ([`vehicle`]), when the base is one.
+    pub vehicle: Option<vehicle::Vehicle>,
 }
 
 /// The innovation gate the CLI and the tools use unless told, sigmas.
@@ -78,6 +81,7 @@ impl AidedOptions {
             floor: ReceiverFloor::default(),
             gnss_velocity: true,
             time_offset_s: 0.0,
+            vehicle: None,
         }
     }
 }
@@ -188,6 +192,8 @@ pub struct AidedRun {
     /// the position after it less the one the step before would have
     /// reached at its velocity).
     pub reinit_at: Vec<(f64, f64)>,
+    /// What the vehicle's constraints did (`--vehicle`).
+    pub vehicle: Option<vehicle::VehicleReport>,
 }
 
 /// The fixes the filter gets: those outside the outages cut in, each at
@@ -377,6 +383,8 @@ fn navigate_t<T: Real>(
     };
     let truth = mv.truth.as_deref().unwrap_or(&[]);
     let mut next_fix = 0usize;
+    let mut vaid = opt.vehicle.map(|_| vehicle::VehicleAid::default());
+    let mut last_fix_s = f64::NEG_INFINITY;
     let n = rec.imu.len();
     let half = 0.5 / m.imu_rate_hz;
     for k in 0..n {
@@ -408,6 +416,12 @@ fn navigate_t<T: Real>(
         // its own NIS over its own components.
         for (nis, used) in [step.fix, step.fix_velocity].into_iter().flatten() {
             run.nis.push((t, nis.to_f64(), used));
+        }
+        if step.fix.is_some() {
+            last_fix_s = t;
+        }
+        if let (Some(va), true) = (vaid.as_mut(), k > 0) {
+            va.after_step(&mut an, t, &table(t), t - last_fix_s <= 2.0);
         }
         // The filter's own solution (the board sends the same), put on the
         // tangent plane for the trajectory.
@@ -496,6 +510,7 @@ fn navigate_t<T: Real>(
     run.zarus = an.counts.zarus;
     run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
+    run.vehicle = vaid.map(|v| v.report);
     run.outages_cut = opt.outages.clone();
     progress(1.0);
     Ok(run)

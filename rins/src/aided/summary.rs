@@ -58,6 +58,8 @@ pub struct AidedSummary {
     /// Where zero-velocity updates fired: (first s, last s, updates) per
     /// stretch (updates at most 0.5 s apart).
     pub zupt_spans: Vec<(f64, f64, u32)>,
+    /// What the vehicle's constraints did (`--vehicle`), `None` without.
+    pub vehicle: Option<super::vehicle::VehicleReport>,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -254,6 +256,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     if !sq.is_empty() {
         s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
     }
+    s.vehicle = run.vehicle;
     s.reinit_at = run
         .reinit_at
         .iter()
@@ -397,6 +400,9 @@ impl AidedSummary {
                 ),
             };
         }
+        if let Some(v) = &self.vehicle {
+            o += &vehicle_text(v);
+        }
         if !self.zupt_spans.is_empty() {
             let shown: Vec<String> = self
                 .zupt_spans
@@ -421,5 +427,16 @@ impl AidedSummary {
     /// As JSON.
     pub fn json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
+    }
+}
+
+/// The vehicle's lines of the summary.
+fn vehicle_text(v: &super::vehicle::VehicleReport) -> String {
+    match (&v.forward, v.found_at_s) {
+        (Some(f), Some(t)) => format!(
+            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (from {} s of straight driving, found at {t:.0} s); {} constraint updates, {} components gated, {} due while standing or turning hard\n",
+            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.samples, v.updates, v.rejected, v.off
+        ),
+        _ => "vehicle: no constraint made: the forward axis needs 20 s of straight driving above 5 m/s with fixes, and the run had less\n".into(),
     }
 }

@@ -100,6 +100,11 @@ pub struct Args {
     /// around --time-offset-s) and navigate with it.
     #[arg(long, requires = "gnss")]
     pub estimate_time_offset: bool,
+    /// The base is a land vehicle (`car`): it does not slide sideways or
+    /// leave the road. Its forward axis in b is found from the first
+    /// straight driving with fixes and reported with its sigma.
+    #[arg(long, value_name = "KIND", value_parser = ["car"], requires = "gnss")]
+    pub vehicle: Option<String>,
 }
 
 /// `--start-s`, `--end-s` and the outages inside the recording's span,
@@ -376,6 +381,10 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         floor: receiver_floor(a.gnss_floor_m.as_deref(), rec)?,
         gnss_velocity: !a.gnss_position_only,
         time_offset_s: a.time_offset_s,
+        vehicle: a
+            .vehicle
+            .as_deref()
+            .and_then(rins::aided::vehicle::Vehicle::parse),
     };
     let mut opt = opt;
     let offset = match a.estimate_time_offset {

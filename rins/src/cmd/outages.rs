@@ -37,6 +37,13 @@ pub struct Args {
     /// outages; the first sensor's first drive) into this directory.
     #[arg(long)]
     pub plots: Option<PathBuf>,
+    /// The car's constraints instead of the table's scheme: each drive
+    /// spinning, its base mounted in the car at a rotation drawn per
+    /// drive, navigated with and without `--vehicle car` (outages at 300
+    /// s for 60 s and 600 s for 120 s).
+    #[arg(long, value_name = "KIND", value_parser = ["car"],
+          conflicts_with_all = ["shard", "plots"])]
+    pub vehicle: Option<String>,
 }
 
 /// Runs `rins outages`.
@@ -48,6 +55,9 @@ pub fn run(a: &Args) -> Result<()> {
         .split(',')
         .map(|n| Ok(hal_sim::sensor::resolve(n.trim())?))
         .collect::<Result<Vec<_>>>()?;
+    if a.vehicle.is_some() {
+        return vehicle(a, kind, &imus);
+    }
     let shard = a.shard.unwrap_or(Shard::ALL);
     super::shard_needs_json(
         shard,
@@ -85,6 +95,25 @@ pub fn show(
     let md = s.markdown();
     print!("{md}");
     if let Some(p) = markdown {
+        write_file(p, &md)?;
+    }
+    Ok(())
+}
+
+/// `rins outages --vehicle car`.
+fn vehicle(a: &Args, kind: DriveKind, imus: &[hal_sim::imu::ImuSpec]) -> Result<()> {
+    let pb = progress_bar("outages --vehicle");
+    let s = rins::vehicle_study::run(kind, imus, a.seed, a.drives, &|f| {
+        pb.set_position((f * 1000.0) as u64)
+    })?;
+    pb.finish_and_clear();
+    if let Some(p) = &a.json {
+        write_file(p, &serde_json::to_string_pretty(&s)?)?;
+        println!("wrote {}", p.display());
+    }
+    let md = s.markdown();
+    print!("{md}");
+    if let Some(p) = &a.markdown {
         write_file(p, &md)?;
     }
     Ok(())
