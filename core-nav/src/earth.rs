@@ -107,6 +107,33 @@ impl GeoPoint {
         )
     }
 
+    /// The point at ECEF position `r_e` (m): latitude by fixed-point
+    /// iteration of Groves Eq. 2.113 (`tan lat = z (R_E + h) / (p (R_E
+    /// (1 - e^2) + h))`), six rounds: from the spherical guess each round
+    /// gains about three digits (e^2 / 2), below 1e-12 rad (6 um) at any
+    /// height below 1000 km; `None` on the polar axis or a non-finite
+    /// input.
+    pub fn from_ecef(r_e: &Vector3<f64>) -> Option<Self> {
+        let p = libm::hypot(r_e.x, r_e.y);
+        if !(p > 0.0 && r_e.z.is_finite()) {
+            return None;
+        }
+        let lon = libm::atan2(r_e.y, r_e.x);
+        let mut lat = libm::atan2(r_e.z, p * (1.0 - WGS84_E2));
+        let mut h = 0.0;
+        for _ in 0..6 {
+            let sl = libm::sin(lat);
+            let (_, r_n) = radii(sl * sl);
+            h = p / libm::cos(lat) - r_n;
+            lat = libm::atan2(r_e.z * (r_n + h), p * (r_n * (1.0 - WGS84_E2) + h));
+        }
+        Some(Self {
+            lat_rad: lat,
+            lon_rad: lon,
+            height_m: h,
+        })
+    }
+
     /// Rotation from ECEF to the local NED frame at this point, `C_e_n`.
     pub fn c_e_n(&self) -> nalgebra::Matrix3<f64> {
         let (sl, cl) = crate::real::sin_cos(self.lat_rad);
@@ -262,6 +289,27 @@ impl<T: Real> LocalEarth<T> {
             lon_rad: o.lon_rad + p_n.y.to_f64() / rn_h0_cos,
             height_m: o.height_m - p_n.z.to_f64(),
         }
+    }
+}
+
+#[cfg(test)]
+mod ecef_tests {
+    use super::*;
+
+    #[test]
+    fn ecef_round_trips_to_the_micrometre() {
+        // Against to_ecef (Groves Eq. 2.112, closed form): the round trip
+        // returns the point within 1e-11 rad and 1e-5 m (the iteration's
+        // residual, module docs).
+        for (lat, lon, h) in [(37.72, -122.47, 31.6), (-60.0, 10.0, 5000.0), (0.1, 179.9, -30.0), (89.0, 45.0, 0.0)] {
+            let p = GeoPoint::from_deg(lat, lon, h);
+            let q = GeoPoint::from_ecef(&p.to_ecef()).unwrap();
+            assert!((q.lat_rad - p.lat_rad).abs() < 1e-11, "{lat}");
+            assert!((q.lon_rad - p.lon_rad).abs() < 1e-11, "{lon}");
+            assert!((q.height_m - h).abs() < 1e-5, "{h} {}", q.height_m);
+        }
+        assert_eq!(GeoPoint::from_ecef(&Vector3::new(0.0, 0.0, 6.4e6)), None);
+        assert_eq!(GeoPoint::from_ecef(&Vector3::new(f64::NAN, 0.0, 0.0)), None);
     }
 }
 

@@ -762,6 +762,7 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             desc.push_str(&format!(", {} drive", d.kind.name()));
         }
         rec.moving = Some(MovingBase {
+            odometer: None,
             longitude_deg: d.longitude_deg,
             gnss_meta: Some(GnssMeta {
                 antenna_b_m: [

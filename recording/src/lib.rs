@@ -369,6 +369,10 @@ impl Recording {
             if t.exists() {
                 m.truth = Some(crate::moving::parse_truth(&read_text(&t)?, &t)?);
             }
+            let o = dir.join("odometer.csv");
+            if o.exists() {
+                m.odometer = Some(crate::moving::parse_odometer(&read_text(&o)?, &o)?);
+            }
         }
         Ok(Self {
             meta,
@@ -399,6 +403,9 @@ impl Recording {
             }
             if let Some(t) = &m.truth {
                 files.push(("truth.csv", crate::moving::truth_text(t)));
+            }
+            if let Some(o) = &m.odometer {
+                files.push(("odometer.csv", crate::moving::odometer_text(o)));
             }
         }
         for (name, text) in files {

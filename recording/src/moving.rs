@@ -204,6 +204,8 @@ pub struct MovingBase {
     pub gnss: Option<Vec<GnssRow>>,
     /// `truth.csv`, when present (simulated runs).
     pub truth: Option<Vec<TruthRow>>,
+    /// `odometer.csv`, when present.
+    pub odometer: Option<Vec<OdometerRow>>,
     /// `[base] heading_known = false` (an extra key): the base's heading
     /// at `t_s = 0` is not known (an imported log whose `[base]` heading
     /// is a placeholder); navigation finds it from the fixes' velocity.
@@ -314,6 +316,7 @@ pub fn parse_meta(text: &str, path: &Path) -> Result<Option<MovingBase>, Recordi
             .ok_or_else(|| err(path, None, "[base] heading_known: expected true or false"))?,
     };
     Ok(Some(MovingBase {
+        odometer: None,
         longitude_deg,
         gnss_meta,
         gnss: None,
@@ -490,6 +493,65 @@ pub fn gnss_text(rows: &[GnssRow]) -> String {
     s
 }
 
+/// One `odometer.csv` row: the vehicle's speed along `b`'s x axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OdometerRow {
+    /// Time, s (the IMU's clock).
+    pub t_s: f64,
+    /// Speed, m/s (wheel speeds averaged, or the car's own).
+    pub speed_mps: f64,
+    /// Its 1-sigma, m/s, when the file gives one.
+    pub sigma_mps: Option<f64>,
+}
+
+/// `odometer.csv`'s columns; `sigma_mps` is optional.
+pub const ODOMETER_COLS: [&str; 3] = ["t_s", "speed_mps", "sigma_mps"];
+
+/// Parses `odometer.csv`.
+///
+/// # Errors
+/// As the other recording files, and a sigma that is not positive.
+pub fn parse_odometer(text: &str, path: &Path) -> Result<Vec<OdometerRow>, RecordingError> {
+    let header = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("");
+    let sigma = header.split(',').any(|c| c.trim() == ODOMETER_COLS[2]);
+    let cols = if sigma {
+        &ODOMETER_COLS[..]
+    } else {
+        &ODOMETER_COLS[..2]
+    };
+    crate::parse_columns(text, path, cols)?
+        .into_iter()
+        .map(|(line, v)| match v[..] {
+            [t_s, speed_mps] => Ok(OdometerRow {
+                t_s,
+                speed_mps,
+                sigma_mps: None,
+            }),
+            [t_s, speed_mps, s] if s > 0.0 => Ok(OdometerRow {
+                t_s,
+                speed_mps,
+                sigma_mps: Some(s),
+            }),
+            _ => Err(err(path, Some(line), "sigma_mps must be positive")),
+        })
+        .collect()
+}
+
+/// `odometer.csv` as text (`sigma_mps` when every row has one; times to
+/// the microsecond: a CAN bus delivers two frames within a millisecond).
+pub fn odometer_text(rows: &[OdometerRow]) -> String {
+    let sigma = !rows.is_empty() && rows.iter().all(|r| r.sigma_mps.is_some());
+    let mut s = ODOMETER_COLS[..if sigma { 3 } else { 2 }].join(",");
+    s.push('\n');
+    for r in rows {
+        let _ = match r.sigma_mps.filter(|_| sigma) {
+            Some(sg) => writeln!(s, "{:.6},{:.4},{sg}", r.t_s, r.speed_mps),
+            None => writeln!(s, "{:.6},{:.4}", r.t_s, r.speed_mps),
+        };
+    }
+    s
+}
+
 /// `truth.csv` as text.
 pub fn truth_text(rows: &[TruthRow]) -> String {
     let mut s = TRUTH_COLS.join(",");
@@ -631,5 +693,26 @@ mod tests {
         assert_eq!(truth_overlap(&rows, 9.0, 14.0, p), Ok([10.0, 11.0]));
         let e = truth_overlap(&rows, 11.5, 14.0, p).unwrap_err().to_string();
         assert!(e.contains("run/truth.csv") && e.contains("10.000 s"), "{e}");
+    }
+}
+
+#[cfg(test)]
+mod odometer_tests {
+    use super::*;
+
+    #[test]
+    fn odometer_rows_round_trip_with_and_without_sigma() {
+        let p = Path::new("drive/odometer.csv");
+        let rows = parse_odometer("t_s,speed_mps\n0.010,12.5\n0.020,12.6\n", p).unwrap();
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[1].sigma_mps, None);
+        assert_eq!(parse_odometer(&odometer_text(&rows), p).unwrap(), rows);
+        let with = parse_odometer("t_s,speed_mps,sigma_mps\n0.010,12.5,0.1\n", p).unwrap();
+        assert_eq!(with[0].sigma_mps, Some(0.1));
+        assert_eq!(parse_odometer(&odometer_text(&with), p).unwrap(), with);
+        let e = parse_odometer("t_s,speed_mps,sigma_mps\n0.010,12.5,0\n", p).unwrap_err();
+        assert!(e.to_string().contains("odometer.csv:2"), "{e}");
+        let e = parse_odometer("t_s,speed_mps\n0.020,1\n0.010,1\n", p).unwrap_err();
+        assert!(e.to_string().contains("odometer.csv:3"), "{e}");
     }
 }

@@ -37,6 +37,34 @@ pub enum From {
          --sensor <SENSOR> --out <OUT> [OPTIONS]"
     )]
     KfGins(KfGinsArgs),
+    /// A comma2k19 segment (NumPy arrays): the IMU, the u-blox fixes at
+    /// their epochs, CAN speed as odometer.csv, the pose as a reference.
+    #[command(
+        override_usage = "rins import comma2k19 --dir <DIR> --fix-sigma-m <M> \\
+         --sensor <SENSOR> --out <OUT> [OPTIONS]"
+    )]
+    Comma2k19(CommaArgs),
+}
+
+/// `rins import comma2k19`.
+#[derive(clap::Args)]
+pub struct CommaArgs {
+    /// The segment directory (holding processed_log/ and global_pose/).
+    #[arg(long)]
+    pub dir: PathBuf,
+    /// The fixes' horizontal 1-sigma, m (vertical twice it): the log has
+    /// none of the receiver's.
+    #[arg(long)]
+    pub fix_sigma_m: f64,
+    /// The sensor: a shipped name or a sensor file.
+    #[arg(long)]
+    pub sensor: String,
+    /// The recording directory to write (must not exist).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write what was counted as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// `rins import csv`.
@@ -142,7 +170,41 @@ pub fn run(a: &Args) -> Result<()> {
         From::Csv(c) => csv(c),
         From::Rtklib(r) => rtklib(r),
         From::KfGins(k) => kf_gins(k),
+        From::Comma2k19(c) => comma(c),
     }
+}
+
+fn comma(a: &CommaArgs) -> Result<()> {
+    if a.out.exists() {
+        bail!(
+            "{} exists: a recording is never rewritten in place",
+            a.out.display()
+        );
+    }
+    let input = import::comma::CommaInput {
+        dir: a.dir.clone(),
+        fix_sigma_h_m: a.fix_sigma_m,
+        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+    };
+    let (rec, rep) = import::comma::import(&input)?;
+    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let odo = rec
+        .moving
+        .as_ref()
+        .and_then(|m| m.odometer.as_ref())
+        .map_or(0, Vec::len);
+    println!(
+        "wrote {}: {} IMU samples ({:.1} Hz), {} fixes at their epochs ({} outside the IMU's span), {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU)",
+        a.out.display(),
+        rep.imu_samples,
+        rep.imu_rate_found_hz,
+        rep.fixes,
+        rep.fixes_outside,
+    );
+    if let Some(j) = &a.json {
+        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
+    }
+    Ok(())
 }
 
 fn kf_gins(a: &KfGinsArgs) -> Result<()> {

@@ -209,6 +209,7 @@ pub fn import(input: &KfGinsInput) -> Result<(Recording, super::ImportReport)> {
     .round()
     .max(1.0);
     let moving = MovingBase {
+        odometer: None,
         longitude_deg: lon,
         gnss_meta: Some(GnssMeta {
             antenna_b_m: input.sensor.mounting.antenna_b_m.unwrap_or([0.0; 3]),

@@ -11,10 +11,14 @@
 //!   the sensor's regular clock when they are arrival times.
 //! - [`kfgins`]: KF-GINS text files (IMU increments, GNSS with sigmas, a
 //!   reference).
+//! - [`comma`]: a comma2k19 segment's NumPy arrays (IMU, u-blox fixes,
+//!   CAN speed, the pose as a reference).
 
 pub mod columns;
+pub mod comma;
 pub mod csv;
 pub mod kfgins;
+pub mod npy;
 pub mod rtklib;
 pub mod tag;
 
@@ -240,6 +244,7 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
         table_source: TableSource::None,
     };
     let moving = MovingBase {
+        odometer: None,
         longitude_deg: first.lon_deg,
         gnss_meta: Some(GnssMeta {
             antenna_b_m: input.sensor.mounting.antenna_b_m.unwrap_or([0.0; 3]),
