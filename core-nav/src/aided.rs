@@ -720,6 +720,33 @@ impl<T: Real> AidedNav<T> {
         Ok(())
     }
 
+    /// Starts a vehicle that is already moving: the velocity set to
+    /// `v_n` (m/s, NED; the fixes' at the start) and its 1-sigma to
+    /// `sigma_mps` (m/s, each axis), uncorrelated (the navigator starts
+    /// at rest otherwise).
+    pub fn start_moving(&mut self, v_n: &Vector3<T>, sigma_mps: T) {
+        let dv = v_n - self.nav.state().v_n;
+        if self
+            .nav
+            .correct(&Vector3::zeros(), &dv, &Vector3::zeros())
+            .is_err()
+        {
+            self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
+        }
+        for i in crate::eskf::I_V..crate::eskf::I_V + 3 {
+            for j in 0..crate::eskf::N {
+                for idx in [(i, j), (j, i)] {
+                    if let Some(x) = self.kf.p.get_mut(idx) {
+                        *x = T::zero();
+                    }
+                }
+            }
+            if let Some(x) = self.kf.p.get_mut((i, i)) {
+                *x = sigma_mps * sigma_mps;
+            }
+        }
+    }
+
     /// The base's rotation at the last sample, the table's and the
     /// estimated errors taken out, rad/s in `b`.
     pub fn w_ib_b(&self) -> Vector3<T> {

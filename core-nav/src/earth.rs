@@ -301,7 +301,12 @@ mod ecef_tests {
         // Against to_ecef (Groves Eq. 2.112, closed form): the round trip
         // returns the point within 1e-11 rad and 1e-5 m (the iteration's
         // residual, module docs).
-        for (lat, lon, h) in [(37.72, -122.47, 31.6), (-60.0, 10.0, 5000.0), (0.1, 179.9, -30.0), (89.0, 45.0, 0.0)] {
+        for (lat, lon, h) in [
+            (37.72, -122.47, 31.6),
+            (-60.0, 10.0, 5000.0),
+            (0.1, 179.9, -30.0),
+            (89.0, 45.0, 0.0),
+        ] {
             let p = GeoPoint::from_deg(lat, lon, h);
             let q = GeoPoint::from_ecef(&p.to_ecef()).unwrap();
             assert!((q.lat_rad - p.lat_rad).abs() < 1e-11, "{lat}");

@@ -174,3 +174,40 @@ pub fn align(rec: &Recording, fixes: &[GnssRow], g: f64) -> anyhow::Result<Align
         pairs: angles.len(),
     })
 }
+
+/// A run that starts moving: the velocity the first fixes give.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct MovingStart {
+    /// Velocity, NED, m/s.
+    pub v_n_mps: [f64; 3],
+    /// Its 1-sigma per axis, m/s.
+    pub sigma_mps: f64,
+}
+
+/// The start's velocity when the vehicle is already moving: the first
+/// fix's own velocity, or the first two position fixes at least
+/// [`DV_SPAN_S`] apart differenced (1-sigma `sqrt(2)` times their
+/// horizontal sigma over the interval); `None` when the horizontal speed
+/// is within [`STILL_SPEED_MPS`] plus 3 sigma of rest (a still start).
+pub fn moving_start(fixes: &[GnssRow], origin: core_nav::earth::GeoPoint) -> Option<MovingStart> {
+    let f0 = fixes.first()?;
+    let (v, sigma) = if f0.has_velocity() {
+        (f0.v_n_mps, f0.sigma_vel_mps)
+    } else {
+        let f1 = fixes.iter().find(|f| f.t_s >= f0.t_s + DV_SPAN_S)?;
+        let dt = f1.t_s - f0.t_s;
+        let at = |f: &GnssRow| {
+            origin.ned_to(&core_nav::earth::GeoPoint::from_deg(
+                f.lat_deg, f.lon_deg, f.height_m,
+            ))
+        };
+        let v = (at(f1) - at(f0)) / dt;
+        let s = std::f64::consts::SQRT_2 * f0.sigma_h_m.max(f1.sigma_h_m) / dt;
+        ([v.x, v.y, v.z], s)
+    };
+    let moving = v[0].hypot(v[1]) > STILL_SPEED_MPS + 3.0 * sigma;
+    moving.then_some(MovingStart {
+        v_n_mps: v,
+        sigma_mps: sigma,
+    })
+}

@@ -194,6 +194,9 @@ pub struct AidedRun {
     pub reinit_at: Vec<(f64, f64)>,
     /// What the vehicle's constraints did (`--vehicle`).
     pub vehicle: Option<vehicle::VehicleReport>,
+    /// The vehicle was moving at the start: its velocity from the fixes
+    /// (and no zero-velocity updates).
+    pub moving_start: Option<align::MovingStart>,
 }
 
 /// The fixes the filter gets: those outside the outages cut in, each at
@@ -362,7 +365,11 @@ fn navigate_t<T: Real>(
     } else {
         track.read_sigma_rad()
     };
+    let moving = align::moving_start(&fixes, origin.point());
     let mut cfg = aided_config(m.axis, lever_b, opt, m.imu_rate_hz, read_sigma);
+    // The zero-velocity detector learns its threshold from a still start:
+    // a car already moving has none (uniform motion reads as stillness).
+    cfg.zupt &= moving.is_none();
     cfg.initial = initial;
     cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&fixes);
     let mut an = AidedNav::<T>::new(
@@ -374,16 +381,24 @@ fn navigate_t<T: Real>(
         cfg,
     )
     .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
+    if let Some(ms) = &moving {
+        an.start_moving(&Vector3::from(ms.v_n_mps).map(T::lit), T::lit(ms.sigma_mps));
+    }
     let earth = *an.nav().earth();
     let tangent = earth.origin.tangent();
     let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
     let mut run = AidedRun {
         aligned,
+        moving_start: moving,
         ..AidedRun::default()
     };
     let truth = mv.truth.as_deref().unwrap_or(&[]);
     let mut next_fix = 0usize;
-    let mut vaid = opt.vehicle.map(|_| vehicle::VehicleAid::default());
+    let mut vaid = opt.vehicle.map(|_| {
+        let mut v = vehicle::VehicleAid::default();
+        v.report.odometer_unused = mv.odometer.as_ref().is_some_and(|o| !o.is_empty());
+        v
+    });
     let mut last_fix_s = f64::NEG_INFINITY;
     let n = rec.imu.len();
     let half = 0.5 / m.imu_rate_hz;

@@ -60,6 +60,8 @@ pub struct AidedSummary {
     pub zupt_spans: Vec<(f64, f64, u32)>,
     /// What the vehicle's constraints did (`--vehicle`), `None` without.
     pub vehicle: Option<super::vehicle::VehicleReport>,
+    /// The run started moving: the velocity the fixes gave it.
+    pub moving_start: Option<super::align::MovingStart>,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -257,6 +259,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
     }
     s.vehicle = run.vehicle;
+    s.moving_start = run.moving_start;
     s.reinit_at = run
         .reinit_at
         .iter()
@@ -343,7 +346,15 @@ impl AidedSummary {
             ),
             _ => String::new(),
         };
-        let mut o = format!(
+        let mut o = self.moving_start.map_or(String::new(), |m| {
+            let [n, e, _] = m.v_n_mps;
+            format!(
+                "moving at the start ({:.1} m/s over the ground, +- {:.2} m/s, from the first fixes): no still start, so no zero-velocity updates\n",
+                n.hypot(e),
+                m.sigma_mps
+            )
+        });
+        o += &format!(
             "errors against: {}{over}\n",
             match self.reference {
                 "truth" => "truth.csv",
@@ -434,8 +445,9 @@ impl AidedSummary {
 fn vehicle_text(v: &super::vehicle::VehicleReport) -> String {
     match (&v.forward, v.found_at_s) {
         (Some(f), Some(t)) => format!(
-            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (from {} s of straight driving, found at {t:.0} s); {} constraint updates, {} components gated, {} due while standing or turning hard\n",
-            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.samples, v.updates, v.rejected, v.off
+            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (from {} s of straight driving, found at {t:.0} s); {} constraint updates, {} components gated, {} due but off (standing, turning hard, or the axis too loose for its speed){}\n",
+            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.samples, v.updates, v.rejected, v.off,
+            if v.odometer_unused { "; odometer.csv not used (its scale error needs a filter state rins does not have)" } else { "" }
         ),
         _ => "vehicle: no constraint made: the forward axis needs 20 s of straight driving above 5 m/s with fixes, and the run had less\n".into(),
     }

@@ -54,7 +54,10 @@ const WEEK_S: f64 = 604_800.0;
 fn array(dir: &Path, rel: &str) -> Result<npy::Array> {
     let p = dir.join(rel);
     if !p.exists() {
-        bail!("{}: missing (a comma2k19 segment has processed_log/ and global_pose/)", p.display());
+        bail!(
+            "{}: missing (a comma2k19 segment has processed_log/ and global_pose/)",
+            p.display()
+        );
     }
     npy::read(&p)
 }
@@ -64,7 +67,13 @@ fn signal(dir: &Path, rel: &str, cols: usize) -> Result<(Vec<f64>, npy::Array)> 
     let t = array(dir, &format!("{rel}/t"))?.column0();
     let v = array(dir, &format!("{rel}/value"))?;
     if v.rows != t.len() || v.cols != cols {
-        bail!("{}: {} x {} values for {} times ({cols} columns expected)", dir.join(rel).display(), v.rows, v.cols, t.len());
+        bail!(
+            "{}: {} x {} values for {} times ({cols} columns expected)",
+            dir.join(rel).display(),
+            v.rows,
+            v.cols,
+            t.len()
+        );
     }
     Ok((t, v))
 }
@@ -74,7 +83,11 @@ fn signal(dir: &Path, rel: &str, cols: usize) -> Result<(Vec<f64>, npy::Array)> 
 fn gps_offset(dir: &Path) -> Result<(f64, f64)> {
     let gps = array(dir, "global_pose/frame_gps_times")?;
     let boot = array(dir, "global_pose/frame_times")?.column0();
-    let mut d: Vec<f64> = boot.iter().enumerate().map(|(i, b)| gps.row(i).get(1).copied().unwrap_or(f64::NAN) - b).collect();
+    let mut d: Vec<f64> = boot
+        .iter()
+        .enumerate()
+        .map(|(i, b)| gps.row(i).get(1).copied().unwrap_or(f64::NAN) - b)
+        .collect();
     let week = gps.row(0).first().copied().unwrap_or(f64::NAN);
     let m = core_nav::stats::median(&mut d);
     if !(m.is_finite() && week.is_finite()) {
@@ -91,14 +104,17 @@ fn gps_offset(dir: &Path) -> Result<(f64, f64)> {
 /// count) or in another GPS week than the pose's, no fix or reference row
 /// inside the IMU's span, a non-positive sigma.
 pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
-    if !(input.fix_sigma_h_m > 0.0) {
+    if input.fix_sigma_h_m.is_nan() || input.fix_sigma_h_m <= 0.0 {
         bail!("the fixes' sigma must be positive");
     }
     let dir = &input.dir;
     let (t_imu, acc) = signal(dir, "processed_log/IMU/accelerometer", 3)?;
     let (t_gyro, gyr) = signal(dir, "processed_log/IMU/gyro", 3)?;
     if t_gyro != t_imu {
-        bail!("{}: the gyro's and the accelerometer's times differ", dir.display());
+        bail!(
+            "{}: the gyro's and the accelerometer's times differ",
+            dir.display()
+        );
     }
     let t0 = *t_imu.first().ok_or_else(|| anyhow!("no IMU sample"))?;
     let t_end = *t_imu.last().unwrap_or(&t0);
@@ -106,11 +122,19 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
     let mut imu = Vec::with_capacity(t_imu.len());
     for (i, t) in t_imu.iter().enumerate() {
         if imu.last().is_some_and(|p: &ImuRow| t - t0 <= p.t_s) {
-            bail!("{}: IMU time {t} does not increase (sample {i})", dir.display());
+            bail!(
+                "{}: IMU time {t} does not increase (sample {i})",
+                dir.display()
+            );
         }
         let v3 = |a: &npy::Array| Vector3::from_column_slice(a.row(i));
         let (w, f) = (c * v3(&gyr), c * v3(&acc));
-        imu.push(ImuRow { t_s: t - t0, gyro_radps: w.into(), accel_mps2: f.into(), temp_c: None });
+        imu.push(ImuRow {
+            t_s: t - t0,
+            gyro_radps: w.into(),
+            accel_mps2: f.into(),
+            temp_c: None,
+        });
     }
     let mut rep = super::ImportReport {
         imu_samples: imu.len(),
@@ -121,20 +145,28 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
     rep.t0_gpst = t0 + gps_minus_boot;
     let gnss = fixes(input, t0, t_end, gps_minus_boot, week, &mut rep)?;
     let truth = reference(dir, t0, t_end)?;
-    let first = truth.first().ok_or_else(|| anyhow!("global_pose: no row inside the IMU's span"))?;
+    let first = truth
+        .first()
+        .ok_or_else(|| anyhow!("global_pose: no row inside the IMU's span"))?;
     let (origin, start) = (first.0, first.1);
     let tangent = origin.tangent();
     let truth: Vec<TruthRow> = truth
         .iter()
         .map(|(p, r)| {
             let d = tangent.ned_to(p);
-            TruthRow { p_n_m: d.into(), ..*r }
+            TruthRow {
+                p_n_m: d.into(),
+                ..*r
+            }
         })
         .collect();
     let odometer = odometer(dir, t0, t_end)?;
     let rate = rep.imu_rate_found_hz.round();
     let meta = Meta {
-        description: Some(format!("imported by rins import comma2k19: {}", dir.display())),
+        description: Some(format!(
+            "imported by rins import comma2k19: {}",
+            dir.display()
+        )),
         latitude_deg: origin.lat_rad.to_degrees(),
         height_m: origin.height_m,
         gravity_mps2: None,
@@ -161,7 +193,16 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
         odometer: Some(odometer),
         heading_unknown: false,
     };
-    Ok((Recording { table: recording::still_table(&imu), meta, imu, moving: Some(moving), gyro_only: false }, rep))
+    Ok((
+        Recording {
+            table: recording::still_table(&imu),
+            meta,
+            imu,
+            moving: Some(moving),
+            gyro_only: false,
+        },
+        rep,
+    ))
 }
 
 /// The live fixes at their epochs on the recording's clock.
@@ -184,7 +225,10 @@ fn fixes(
         }
         let gps = unix - GPS_EPOCH_UNIX_S + LEAP_S;
         if (gps / WEEK_S).floor() != week {
-            bail!("live_gnss_ublox row {i}: GPS week {} but global_pose's is {week}", (gps / WEEK_S).floor());
+            bail!(
+                "live_gnss_ublox row {i}: GPS week {} but global_pose's is {week}",
+                (gps / WEEK_S).floor()
+            );
         }
         let t = gps.rem_euclid(WEEK_S) - gps_minus_boot;
         if t < t0 || t > t_end || !(lat.is_finite() && lon.is_finite() && h.is_finite()) {
@@ -221,12 +265,20 @@ fn reference(dir: &Path, t0: f64, t_end: f64) -> Result<Vec<(GeoPoint, TruthRow)
     let v = array(dir, "global_pose/frame_velocities")?;
     let q = array(dir, "global_pose/frame_orientations")?;
     if [p.rows, v.rows, q.rows] != [t.len(); 3] || [p.cols, v.cols, q.cols] != [3, 3, 4] {
-        bail!("{}: global_pose's arrays do not match in length or width", dir.display());
+        bail!(
+            "{}: global_pose's arrays do not match in length or width",
+            dir.display()
+        );
     }
     let mut out = vec![];
-    for (i, ti) in t.iter().enumerate().filter(|(_, ti)| **ti >= t0 && **ti <= t_end) {
+    for (i, ti) in t
+        .iter()
+        .enumerate()
+        .filter(|(_, ti)| **ti >= t0 && **ti <= t_end)
+    {
         let r_e = Vector3::from_column_slice(p.row(i));
-        let pt = GeoPoint::from_ecef(&r_e).ok_or_else(|| anyhow!("global_pose row {i}: not a position"))?;
+        let pt = GeoPoint::from_ecef(&r_e)
+            .ok_or_else(|| anyhow!("global_pose row {i}: not a position"))?;
         let c_e_n = pt.c_e_n();
         let qi = q.row(i);
         let c_b_e = quat_to_dcm(&Quaternion::new(qi[0], qi[1], qi[2], qi[3]).normalize());
@@ -238,7 +290,11 @@ fn reference(dir: &Path, t0: f64, t_end: f64) -> Result<Vec<(GeoPoint, TruthRow)
                 t_s: ti - t0,
                 p_n_m: [0.0; 3],
                 v_n_mps: v_n.into(),
-                euler_deg: [e.roll.to_degrees(), e.pitch.to_degrees(), e.heading.to_degrees().rem_euclid(360.0)],
+                euler_deg: [
+                    e.roll.to_degrees(),
+                    e.pitch.to_degrees(),
+                    e.heading.to_degrees().rem_euclid(360.0),
+                ],
             },
         ));
     }
@@ -251,6 +307,10 @@ fn odometer(dir: &Path, t0: f64, t_end: f64) -> Result<Vec<OdometerRow>> {
     Ok(t.iter()
         .zip(v.column0())
         .filter(|(t, s)| **t >= t0 && **t <= t_end && s.is_finite())
-        .map(|(t, s)| OdometerRow { t_s: t - t0, speed_mps: s, sigma_mps: None })
+        .map(|(t, s)| OdometerRow {
+            t_s: t - t0,
+            speed_mps: s,
+            sigma_mps: None,
+        })
         .collect())
 }

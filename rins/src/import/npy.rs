@@ -27,7 +27,9 @@ impl Array {
 
     /// Column 0 as a vector.
     pub fn column0(&self) -> Vec<f64> {
-        (0..self.rows).filter_map(|i| self.row(i).first().copied()).collect()
+        (0..self.rows)
+            .filter_map(|i| self.row(i).first().copied())
+            .collect()
     }
 }
 
@@ -61,13 +63,21 @@ pub fn parse(b: &[u8]) -> Result<Array> {
         }
         v => bail!("npy format version {v} (1 to 3 are read)"),
     };
-    let header = std::str::from_utf8(b.get(start..start + len).ok_or_else(|| anyhow!("short header"))?)?;
+    let header = std::str::from_utf8(
+        b.get(start..start + len)
+            .ok_or_else(|| anyhow!("short header"))?,
+    )?;
     let field = |k: &str| -> Result<&str> {
-        let at = header.find(&format!("'{k}':")).ok_or_else(|| anyhow!("header has no '{k}'"))?;
+        let at = header
+            .find(&format!("'{k}':"))
+            .ok_or_else(|| anyhow!("header has no '{k}'"))?;
         Ok(header[at + k.len() + 3..].trim_start())
     };
     if !field("descr")?.starts_with("'<f8'") {
-        bail!("dtype {}: only little-endian float64 ('<f8') is read", field("descr")?.split(',').next().unwrap_or(""));
+        bail!(
+            "dtype {}: only little-endian float64 ('<f8') is read",
+            field("descr")?.split(',').next().unwrap_or("")
+        );
     }
     let fortran = field("fortran_order")?.starts_with("True");
     let shape_text = field("shape")?;
@@ -79,7 +89,10 @@ pub fn parse(b: &[u8]) -> Result<Array> {
         .split(',')
         .map(str::trim)
         .filter(|s| !s.is_empty())
-        .map(|s| s.parse::<usize>().map_err(|_| anyhow!("unreadable shape ({inner})")))
+        .map(|s| {
+            s.parse::<usize>()
+                .map_err(|_| anyhow!("unreadable shape ({inner})"))
+        })
         .collect::<Result<_>>()?;
     let (rows, cols) = match dims[..] {
         [n] => (n, 1),
@@ -89,7 +102,11 @@ pub fn parse(b: &[u8]) -> Result<Array> {
     let body = b.get(start + len..).unwrap_or(&[]);
     let n = rows * cols;
     if body.len() < 8 * n {
-        bail!("{} bytes of data for shape ({inner}): {} expected", body.len(), 8 * n);
+        bail!(
+            "{} bytes of data for shape ({inner}): {} expected",
+            body.len(),
+            8 * n
+        );
     }
     let v: Vec<f64> = body
         .chunks_exact(8)
@@ -110,7 +127,7 @@ mod tests {
 
     fn npy(header: &str, vals: &[f64]) -> Vec<u8> {
         let mut h = header.to_string();
-        while (10 + h.len() + 1) % 64 != 0 {
+        while !(10 + h.len() + 1).is_multiple_of(64) {
             h.push(' ');
         }
         h.push('\n');
@@ -125,16 +142,34 @@ mod tests {
 
     #[test]
     fn c_and_fortran_order_read_the_same_rows() {
-        let c = npy("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }", &[1., 2., 3., 4., 5., 6.]);
-        let f = npy("{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3), }", &[1., 4., 2., 5., 3., 6.]);
+        let c = npy(
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }",
+            &[1., 2., 3., 4., 5., 6.],
+        );
+        let f = npy(
+            "{'descr': '<f8', 'fortran_order': True, 'shape': (2, 3), }",
+            &[1., 4., 2., 5., 3., 6.],
+        );
         let (a, b) = (parse(&c).unwrap(), parse(&f).unwrap());
         assert_eq!(a, b);
         assert_eq!(a.row(1), &[4., 5., 6.]);
-        let one = parse(&npy("{'descr': '<f8', 'fortran_order': False, 'shape': (3,), }", &[7., 8., 9.])).unwrap();
+        let one = parse(&npy(
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (3,), }",
+            &[7., 8., 9.],
+        ))
+        .unwrap();
         assert_eq!(one.column0(), vec![7., 8., 9.]);
-        let e = parse(&npy("{'descr': '<i4', 'fortran_order': False, 'shape': (1,), }", &[0.])).unwrap_err();
+        let e = parse(&npy(
+            "{'descr': '<i4', 'fortran_order': False, 'shape': (1,), }",
+            &[0.],
+        ))
+        .unwrap_err();
         assert!(e.to_string().contains("float64"), "{e}");
-        let e = parse(&npy("{'descr': '<f8', 'fortran_order': False, 'shape': (4,), }", &[0.])).unwrap_err();
+        let e = parse(&npy(
+            "{'descr': '<f8', 'fortran_order': False, 'shape': (4,), }",
+            &[0.],
+        ))
+        .unwrap_err();
         assert!(e.to_string().contains("expected"), "{e}");
         assert!(parse(b"PK\x03\x04").is_err());
     }

@@ -1,0 +1,121 @@
+//! A real car's minute nobody here made: comma2k19's RAV4 on a highway
+//! (a dashcam's phone-class IMU, u-blox fixes at 10 Hz, CAN speed, comma's
+//! own pose; MIT, `tests/data/comma2k19_rav4_highway_60s`, its ORIGIN.md).
+//! The import's clock is checked against the pose (which the receiver's
+//! fixes do not enter at their arrival times), the navigation's errors
+//! are measured against the pose: comma's INS/GNSS/vision solution, not
+//! independent of this IMU, and 2 m from the live fixes while they
+//! arrive. Nothing here comes from our simulator.
+
+use core_nav::earth::GeoPoint;
+use rins::aided::vehicle::Vehicle;
+use rins::aided::{navigate, summary, AidedOptions};
+use rins::import::comma::{import, CommaInput};
+
+/// The u-blox M8's datasheet horizontal accuracy, 2.5 m CEP, as a
+/// 1-sigma per axis (CEP = 1.18 sigma): the log has no sigmas of its own.
+const FIX_SIGMA_M: f64 = 2.0;
+
+fn input() -> CommaInput {
+    CommaInput {
+        dir: rins_tests::data::bundled("comma2k19_rav4_highway_60s"),
+        fix_sigma_h_m: FIX_SIGMA_M,
+        sensor: hal_sim::sensor::resolve("icm42605").unwrap(),
+    }
+}
+
+#[test]
+fn the_fixes_epochs_sit_0_12_s_early_on_the_imu_clock_two_ways() {
+    let (rec, rep) = import(&input()).unwrap();
+    // ORIGIN.md: 6,256 IMU samples over 60 s (about 104 Hz); 579 fixes,
+    // of which 2 fall outside the IMU's span on the epoch clock.
+    assert_eq!(rep.imu_samples, 6256);
+    assert!((rep.imu_rate_found_hz - 104.3).abs() < 0.1);
+    assert_eq!((rep.fixes, rep.fixes_outside), (577, 2));
+    let mv = rec.moving.as_ref().unwrap();
+    let (fixes, truth) = (mv.gnss.as_ref().unwrap(), mv.truth.as_ref().unwrap());
+    assert_eq!(mv.odometer.as_ref().unwrap().len(), 4972);
+    // Each fix against the pose at its epoch, along the track, as a time:
+    // the distance over the speed. The arrival stamps lag the epochs by
+    // 0.20 s; the fixes fit the pose 0.12 s after their epochs.
+    let o = GeoPoint::from_deg(rec.meta.latitude_deg, mv.longitude_deg, rec.meta.height_m);
+    let ahead_s: Vec<f64> = fixes
+        .iter()
+        .filter_map(|f| {
+            let t = recording::moving::truth_at(truth, f.t_s)?;
+            let d = o.ned_to(&GeoPoint::from_deg(f.lat_deg, f.lon_deg, f.height_m));
+            let (vn, ve) = (t.v_n_mps[0], t.v_n_mps[1]);
+            let s2 = vn * vn + ve * ve;
+            Some(((d.x - t.p_n_m[0]) * vn + (d.y - t.p_n_m[1]) * ve) / s2)
+        })
+        .collect();
+    let pose_s = ahead_s.iter().sum::<f64>() / ahead_s.len() as f64;
+    // The same from the IMU alone: the time offset whose fixes' NIS the
+    // filter finds smallest (`navigate --estimate-time-offset`): the pose
+    // does not enter it.
+    let opt = AidedOptions::new(hal_sim::sensor::resolve("icm42605").unwrap());
+    let e = rins::aided::offset::estimate(&rec, &opt, 0.5, 0.02, &mut |_| {}).unwrap();
+    println!(
+        "fixes fit the pose {pose_s:.3} s after their epochs; the IMU's NIS puts them {:.3} +- {:.3} s after",
+        e.offset_s, e.sigma_s
+    );
+    // Measured 0.12 s and 0.126 +- 0.073 s: the pose's GPS/boot pairs (or
+    // the receiver's time tags) are 0.12 s early on the boot clock; the
+    // arrival stamps (0.20 s) would be 0.08 s late.
+    assert!((pose_s - 0.12).abs() < 0.03, "{pose_s}");
+    assert!((e.offset_s - pose_s).abs() < 2.0 * e.sigma_s, "{e:?}");
+}
+
+/// The fixes' offset the test above measures, s.
+const FIX_LATE_S: f64 = 0.12;
+
+fn outage_end(vehicle: Option<Vehicle>, start_s: f64) -> (f64, rins::aided::AidedSummary) {
+    let (rec, _) = import(&input()).unwrap();
+    let opt = AidedOptions {
+        outages: vec![(start_s, 15.0)],
+        vehicle,
+        time_offset_s: FIX_LATE_S,
+        ..AidedOptions::new(hal_sim::sensor::resolve("icm42605").unwrap())
+    };
+    let run = navigate(&rec, &opt, &mut |_| {}).unwrap();
+    let ms = run
+        .moving_start
+        .expect("the car moves from its first sample");
+    // The pose's 8.0 m/s at the start, within the fixes' 3 sigma.
+    assert!((ms.v_n_mps[0].hypot(ms.v_n_mps[1]) - 8.0).abs() < 3.0 * ms.sigma_mps);
+    let s = summary(&rec, &run);
+    let g = s
+        .outages
+        .iter()
+        .find(|g| (g.start_s - start_s).abs() < 0.5)
+        .unwrap();
+    assert!(
+        g.within_3_sigma.unwrap_or(0.0) >= 0.7,
+        "{:?}",
+        g.within_3_sigma
+    );
+    (g.end_error_m.unwrap(), s)
+}
+
+#[test]
+fn a_car_s_constraints_stay_off_where_its_forward_axis_is_not_known() {
+    // A straight highway and a phone-class gyro: the filter's heading is
+    // known to about 10 deg, and so is the forward axis's yaw in b (the
+    // velocity's direction in b turns with the heading); its pitch to 2
+    // deg. At 8-20 m/s both put more than the road's 0.1 m/s into the
+    // cross velocities as one constant: the constraints stay off, and the
+    // outage ends where it ends without them.
+    for start in [25.0, 35.0] {
+        let (none, _) = outage_end(None, start);
+        let (car, s) = outage_end(Some(Vehicle::Car), start);
+        let v = s.vehicle.unwrap();
+        let f = v.forward.expect("the forward axis found");
+        // The dashcam pitched 4.3 deg down in the car (the pose's pitch
+        // against its course's): the forward axis 4.3 deg up in b.
+        assert!((f.pitch_deg - 4.3).abs() < 3.0 * f.sigma_pitch_deg, "{f:?}");
+        assert!(f.sigma_yaw_deg > 5.0 && f.sigma_pitch_deg > 1.0, "{f:?}");
+        assert_eq!(v.updates, 0);
+        assert!(v.off > 0 && v.odometer_unused);
+        assert_eq!(none, car);
+    }
+}
