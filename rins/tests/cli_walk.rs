@@ -195,6 +195,9 @@ const NAVIGATE: Walk = Walk {
         changes("--gnss-position-only", &["{drive}", "--gnss", "--gnss-position-only", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--time-offset-s", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], NAV),
+        changes("--vehicle", &["{drive}", "--gnss", "--vehicle", "car", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
+        refused("--vehicle", &["{drive}", "--gnss", "--vehicle", "boat", "--out", "{out}/n"], &["boat"]),
+        refused("--vehicle", &["{drive}", "--vehicle", "car", "--out", "{out}/n"], &["--gnss"]),
     ],
 };
 
@@ -239,6 +242,9 @@ const SIMULATE: Walk = Walk {
         refused("--gnss-outage", &["--gnss-outage", "10:5", "--out", "{out}/r"], &["--drive"]),
         changes("--lon-deg", &["--drive", "city", "--lon-deg", "10", "--duration-s", "30", "--out", "{out}/r"], &["--drive", "city", "--duration-s", "30", "--out", "{out}/r"], SIM_GNSS),
         refused("--lon-deg", &["--lon-deg", "10", "--out", "{out}/r"], &["--drive"]),
+        changes("--mounting-deg", &["--drive", "city", "--mounting-deg", "180,2,-90", "--duration-s", "30", "--out", "{out}/r"], &["--drive", "city", "--duration-s", "30", "--out", "{out}/r"], SIM),
+        refused("--mounting-deg", &["--drive", "city", "--mounting-deg", "1,2", "--out", "{out}/r"], &["three values"]),
+        refused("--mounting-deg", &["--mounting-deg", "1,2,3", "--out", "{out}/r"], &["--drive"]),
         elsewhere("--like", "cli_options.rs", "simulate_like_refuses_the_flags_the_recording_gives"),
         elsewhere("--sim-model", "cli_options.rs", "simulate_like_refuses_the_flags_the_recording_gives"),
         writes("--out", &["--duration-s", "20", "--out", "{out}/r"], "r/meta.toml", &["rins-recording/1"]),
@@ -315,6 +321,22 @@ const IMPORT_KF_GINS: Walk = Walk {
 };
 
 #[rustfmt::skip]
+const COMMA_REC: &[&str] = &["{out}/r/meta.toml", "{out}/r/gnss.csv"];
+
+#[rustfmt::skip]
+const IMPORT_COMMA: Walk = Walk {
+    cmd: &["import", "comma2k19"],
+    cases: &[
+        refused("--dir", &["--dir", "{fix}/none", "--fix-sigma-m", "2", "--sensor", "icm42605", "--out", "{out}/r"], &["none", "missing"]),
+        changes("--fix-sigma-m", &["--dir", "{comma}", "--fix-sigma-m", "1", "--sensor", "icm42605", "--out", "{out}/r"], &["--dir", "{comma}", "--fix-sigma-m", "2", "--sensor", "icm42605", "--out", "{out}/r"], COMMA_REC),
+        refused("--fix-sigma-m", &["--dir", "{comma}", "--fix-sigma-m", "0", "--sensor", "icm42605", "--out", "{out}/r"], &["positive"]),
+        changes("--sensor", &["--dir", "{comma}", "--fix-sigma-m", "2", "--sensor", "nav440", "--out", "{out}/r"], &["--dir", "{comma}", "--fix-sigma-m", "2", "--sensor", "icm42605", "--out", "{out}/r"], COMMA_REC),
+        writes("--out", &["--dir", "{comma}", "--fix-sigma-m", "2", "--sensor", "icm42605", "--out", "{out}/r"], "r/odometer.csv", &["speed_mps"]),
+        writes("--json", &["--dir", "{comma}", "--fix-sigma-m", "2", "--sensor", "icm42605", "--out", "{out}/r", "--json", "{out}/i.json"], "i.json", &["fixes"]),
+    ],
+};
+
+#[rustfmt::skip]
 const STUDY_J: &[&str] = &["{out}/s.json"];
 
 #[rustfmt::skip]
@@ -354,6 +376,8 @@ const OUTAGES: Walk = Walk {
         writes("--markdown", &["--sensor", "nav440", "--drives", "1", "--markdown", "{out}/o.md"], "o.md", &["|"]),
         refused("--markdown", &["--sensor", "nav440", "--drives", "2", "--shard", "1/2", "--json", "{out}/o.json", "--markdown", "{out}/o.md"], &["--markdown with --shard"]),
         writes("--plots", &["--sensor", "nav440", "--drives", "1", "--plots", "{out}/p"], "p/drive_map.png", &[]),
+        writes("--vehicle", &["--sensor", "nav440", "--drives", "1", "--vehicle", "car", "--json", "{out}/o.json"], "o.json", &["rins-vehicle-outages/1", "forward_sigmas"]),
+        refused("--vehicle", &["--sensor", "nav440", "--drives", "2", "--vehicle", "car", "--shard", "1/2", "--json", "{out}/o.json"], &["--shard"]),
     ],
 };
 
@@ -535,7 +559,7 @@ const TOP: Walk = Walk {
 #[rustfmt::skip]
 const WALKS: &[&Walk] = &[
     &TOP, &CALIBRATE, &DIAGNOSE, &NAVIGATE, &SIMULATE, &ALLAN, &IMPORT, &IMPORT_CSV,
-    &IMPORT_RTKLIB, &IMPORT_KF_GINS, &STUDY, &OUTAGES, &REPRODUCE, &RESULTS, &MERGE, &DEMO,
+    &IMPORT_RTKLIB, &IMPORT_KF_GINS, &IMPORT_COMMA, &STUDY, &OUTAGES, &REPRODUCE, &RESULTS, &MERGE, &DEMO,
     &QEMU_REPLAY, &RECORD, &COMMAND, &COMMAND_SCHEME, &COMMAND_SITE, &COMMAND_BASE,
     &COMMAND_AIDED, &COMMAND_START, &COMMAND_STOP, &COMMAND_RECALIBRATE,
 ];
@@ -771,6 +795,10 @@ fn expand(args: &[&str], out: &Path, boards: &mut Vec<Board>) -> Option<Vec<Stri
             .replace("{drive}", "{fix}/drive")
             .replace("{fix}", &s(fix))
             .replace("{walk}", &s(&walk))
+            .replace(
+                "{comma}",
+                &s(&rins_tests::data::bundled("comma2k19_rav4_highway_60s")),
+            )
             .replace("{out}", &s(out));
         if a.contains("{adis}") {
             a = a.replace("{adis}", &s(&adis()?));
@@ -1062,6 +1090,11 @@ fn import_rtklib() {
 #[test]
 fn import_kf_gins() {
     walk(&IMPORT_KF_GINS);
+}
+
+#[test]
+fn import_comma2k19() {
+    walk(&IMPORT_COMMA);
 }
 
 #[test]
