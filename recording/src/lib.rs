@@ -923,6 +923,24 @@ pub fn parse_imu_columns(text: &str, path: &Path) -> Result<(Vec<ImuRow>, bool),
     Ok((rows, gyro_only))
 }
 
+impl Recording {
+    /// A recording of an IMU fixed to its base (no table: the encoder's
+    /// angle 0 at every sample), moving when `moving` is given.
+    pub fn fixed_imu(
+        meta: Meta,
+        imu: Vec<ImuRow>,
+        moving: Option<crate::moving::MovingBase>,
+    ) -> Self {
+        Self {
+            table: still_table(&imu),
+            meta,
+            imu,
+            moving,
+            gyro_only: false,
+        }
+    }
+}
+
 /// The table of a recording without one: at angle 0 at every IMU sample
 /// (recording-v1: a table that never turns).
 pub fn still_table(imu: &[ImuRow]) -> Vec<TableRow> {

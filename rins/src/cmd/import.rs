@@ -164,6 +164,17 @@ pub struct RtklibArgs {
     pub json: Option<PathBuf>,
 }
 
+/// Refuses an `--out` that exists: a recording is never rewritten in place.
+fn fresh(out: &std::path::Path) -> Result<()> {
+    if out.exists() {
+        bail!(
+            "{} exists: a recording is never rewritten in place",
+            out.display()
+        );
+    }
+    Ok(())
+}
+
 /// Runs `rins import`.
 pub fn run(a: &Args) -> Result<()> {
     match &a.from {
@@ -175,12 +186,7 @@ pub fn run(a: &Args) -> Result<()> {
 }
 
 fn comma(a: &CommaArgs) -> Result<()> {
-    if a.out.exists() {
-        bail!(
-            "{} exists: a recording is never rewritten in place",
-            a.out.display()
-        );
-    }
+    fresh(&a.out)?;
     let input = import::comma::CommaInput {
         dir: a.dir.clone(),
         fix_sigma_h_m: a.fix_sigma_m,
@@ -208,12 +214,7 @@ fn comma(a: &CommaArgs) -> Result<()> {
 }
 
 fn kf_gins(a: &KfGinsArgs) -> Result<()> {
-    if a.out.exists() {
-        bail!(
-            "{} exists: a recording is never rewritten in place",
-            a.out.display()
-        );
-    }
+    fresh(&a.out)?;
     let input = import::kfgins::KfGinsInput {
         imu: a.imu_file.clone(),
         gnss: a.gnss.clone(),
@@ -242,12 +243,7 @@ fn kf_gins(a: &KfGinsArgs) -> Result<()> {
 }
 
 fn rtklib(a: &RtklibArgs) -> Result<()> {
-    if a.out.exists() {
-        bail!(
-            "{} exists: a recording is never rewritten in place",
-            a.out.display()
-        );
-    }
+    fresh(&a.out)?;
     let input = RtklibInput {
         pos: a.pos.clone(),
         imu: a.imu_file.clone(),
@@ -266,12 +262,7 @@ fn rtklib(a: &RtklibArgs) -> Result<()> {
 }
 
 fn csv(a: &CsvArgs) -> Result<()> {
-    if a.out.exists() {
-        bail!(
-            "{} exists: a recording is never rewritten in place",
-            a.out.display()
-        );
-    }
+    fresh(&a.out)?;
     let base = match a.base_deg.as_deref() {
         None => None,
         Some(&[r, p, h]) => Some([r, p, h]),

@@ -193,16 +193,7 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
         odometer: Some(odometer),
         heading_unknown: false,
     };
-    Ok((
-        Recording {
-            table: recording::still_table(&imu),
-            meta,
-            imu,
-            moving: Some(moving),
-            gyro_only: false,
-        },
-        rep,
-    ))
+    Ok((Recording::fixed_imu(meta, imu, Some(moving)), rep))
 }
 
 /// The live fixes at their epochs on the recording's clock.

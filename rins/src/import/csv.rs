@@ -147,13 +147,7 @@ pub fn import(input: &CsvInput) -> Result<(Recording, CsvReport)> {
         encoder_rate_hz: map.rate_hz,
         table_source: TableSource::None,
     };
-    let rec = Recording {
-        table: recording::still_table(&imu),
-        meta,
-        imu,
-        moving: None,
-        gyro_only: false,
-    };
+    let rec = Recording::fixed_imu(meta, imu, None);
     if rec.imu.len() < 2 {
         return Err(anyhow!("{}: fewer than two samples", input.imu.display()));
     }

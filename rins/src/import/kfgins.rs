@@ -219,16 +219,7 @@ pub fn import(input: &KfGinsInput) -> Result<(Recording, super::ImportReport)> {
         heading_unknown: start.is_none(),
         truth,
     };
-    Ok((
-        Recording {
-            table: recording::still_table(&imu),
-            meta,
-            imu,
-            moving: Some(moving),
-            gyro_only: false,
-        },
-        rep,
-    ))
+    Ok((Recording::fixed_imu(meta, imu, Some(moving)), rep))
 }
 
 #[cfg(test)]

@@ -254,13 +254,7 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
         truth: None,
         heading_unknown: true,
     };
-    let rec = Recording {
-        table: recording::still_table(&imu),
-        meta,
-        imu,
-        moving: Some(moving),
-        gyro_only: false,
-    };
+    let rec = Recording::fixed_imu(meta, imu, Some(moving));
     Ok((rec, rep))
 }
 
