@@ -230,6 +230,15 @@ fn one(kind: DriveKind, imu: &ImuSpec, rotary: bool, seed: u64) -> Result<DriveR
     })
 }
 
+/// A markdown table's header row and its rule, `cols` in order.
+pub(crate) fn table_head(cols: &[String]) -> String {
+    format!(
+        "| {} |\n|{}\n",
+        cols.join(" | "),
+        " --- |".repeat(cols.len())
+    )
+}
+
 impl OutageStudy {
     /// Mean end error per (sensor, rotary, outage index), m.
     pub fn mean_error(&self, imu: &str, rotary: bool, k: usize) -> f64 {
@@ -252,18 +261,14 @@ impl OutageStudy {
             .iter()
             .filter(|r| r.imu == imus.first().copied().unwrap_or("") && r.rotary)
             .count();
+        let mut cols = vec!["sensor".to_string(), "scheme".into()];
+        cols.extend(self.outages.iter().map(|(_, l)| format!("{l:.0} s")));
+        cols.extend(["NEES / dof".into(), "NEES in 95 %".into()]);
         let mut o = format!(
-            "Horizontal error at the end of each GNSS outage, mean (median) over {n} {} drives of {DRIVE_S:.0} s (m):\n\n| sensor | scheme |",
-            self.drive
+            "Horizontal error at the end of each GNSS outage, mean (median) over {n} {} drives of {DRIVE_S:.0} s (m):\n\n{}",
+            self.drive,
+            table_head(&cols)
         );
-        for (_, l) in &self.outages {
-            o += &format!(" {l:.0} s |");
-        }
-        o += " NEES / dof | NEES in 95 % |\n| --- | --- |";
-        for _ in &self.outages {
-            o += " --- |";
-        }
-        o += " --- | --- |\n";
         for imu in &imus {
             for rotary in [false, true] {
                 let rs: Vec<&DriveResult> = self

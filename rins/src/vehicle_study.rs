@@ -10,7 +10,7 @@
 //! on a road; their sigma is the road's ([`core_nav::vehicle`]).
 
 use crate::aided::{self, vehicle::Vehicle, AidedOptions};
-use crate::outages::{config_mounted, TABLE_DPS};
+use crate::outages::{config_mounted, table_head, TABLE_DPS};
 use anyhow::{anyhow, Result};
 use core_nav::stats::mean;
 use hal_sim::drive::DriveKind;
@@ -162,18 +162,19 @@ impl VehicleStudy {
     pub fn markdown(&self) -> String {
         let mut imus: Vec<&str> = self.runs.iter().map(|r| r.imu.as_str()).collect();
         imus.dedup();
-        let mut o = format!(
-            "Horizontal error at each GNSS outage's end, mean over the {} drives (the table at {TABLE_DPS:.0} deg/s, the base mounted in the car at a rotation drawn per drive and not told), without and with the car's constraints (m):\n\n| sensor | drives |",
-            self.drive
-        );
+        let mut cols = vec!["sensor".to_string(), "drives".into()];
         for (_, l) in &self.outages {
-            o += &format!(" {l:.0} s off | {l:.0} s on |");
+            cols.extend([format!("{l:.0} s off"), format!("{l:.0} s on")]);
         }
-        o += " NEES in 95 % off / on | forward axis within 3 sigma |\n| --- | --- |";
-        for _ in &self.outages {
-            o += " --- | --- |";
-        }
-        o += " --- | --- |\n";
+        cols.extend([
+            "NEES in 95 % off / on".into(),
+            "forward axis within 3 sigma".into(),
+        ]);
+        let mut o = format!(
+            "Horizontal error at each GNSS outage's end, mean over the {} drives (the table at {TABLE_DPS:.0} deg/s, the base mounted in the car at a rotation drawn per drive and not told), without and with the car's constraints (m):\n\n{}",
+            self.drive,
+            table_head(&cols)
+        );
         for imu in imus {
             o += &self.row(imu);
         }

@@ -56,15 +56,9 @@ pub struct CommaArgs {
     /// none of the receiver's.
     #[arg(long)]
     pub fix_sigma_m: f64,
-    /// The sensor: a shipped name or a sensor file.
-    #[arg(long)]
-    pub sensor: String,
-    /// The recording directory to write (must not exist).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write what was counted as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// The sensor, where to write, the counts.
+    #[command(flatten)]
+    pub to: Written,
 }
 
 /// `rins import csv`.
@@ -76,10 +70,6 @@ pub struct CsvArgs {
     /// Its column map (rins-columns/1, TOML; time.source "log" or "rate").
     #[arg(long)]
     pub columns: PathBuf,
-    /// The sensor: a shipped name or a sensor file (its model name goes to
-    /// meta.toml; its mounting turns the samples into the base frame).
-    #[arg(long)]
-    pub sensor: String,
     /// The site's latitude, deg (north positive).
     #[arg(long, allow_negative_numbers = true)]
     pub lat_deg: f64,
@@ -101,12 +91,9 @@ pub struct CsvArgs {
     /// The stated roll's and pitch's 1-sigma, deg (with --base-deg).
     #[arg(long, requires = "base_deg")]
     pub level_sigma_deg: Option<f64>,
-    /// The recording directory to write (must not exist).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write what was counted as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// The sensor, where to write, the counts.
+    #[command(flatten)]
+    pub to: Written,
 }
 
 /// `rins import kf-gins`.
@@ -122,15 +109,9 @@ pub struct KfGinsArgs {
     /// The reference (week, sow, lat, lon, h, vn ve vd, roll pitch yaw).
     #[arg(long)]
     pub truth: Option<PathBuf>,
-    /// The sensor: a shipped name or a sensor file.
-    #[arg(long)]
-    pub sensor: String,
-    /// The recording directory to write (must not exist).
-    #[arg(long)]
-    pub out: PathBuf,
-    /// Also write what was counted as JSON here.
-    #[arg(long)]
-    pub json: Option<PathBuf>,
+    /// The sensor, where to write, the counts.
+    #[command(flatten)]
+    pub to: Written,
 }
 
 /// `rins import rtklib`.
@@ -148,14 +129,24 @@ pub struct RtklibArgs {
     /// The IMU log's RTKLIB time-tag file (default: the IMU file + `.tag`).
     #[arg(long)]
     pub imu_tag: Option<PathBuf>,
-    /// The sensor: a shipped name or a sensor file (its mounting turns the
-    /// samples into the base frame; its antenna lever arm goes to meta).
-    #[arg(long)]
-    pub sensor: String,
     /// The geoid's height above the ellipsoid, m, when the solution's
     /// heights are above mean sea level (added to them); 0: ellipsoidal.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub geoid_m: f64,
+    /// The sensor, where to write, the counts.
+    #[command(flatten)]
+    pub to: Written,
+}
+
+/// What every importer takes besides its files: the sensor, the
+/// recording to write, the counts' JSON.
+#[derive(clap::Args)]
+pub struct Written {
+    /// The sensor: a shipped name or a sensor file (its model name goes to
+    /// meta.toml, its mounting turns the samples into the base frame, its
+    /// antenna lever arm goes to meta).
+    #[arg(long)]
+    pub sensor: String,
     /// The recording directory to write (must not exist).
     #[arg(long)]
     pub out: PathBuf,
@@ -164,15 +155,46 @@ pub struct RtklibArgs {
     pub json: Option<PathBuf>,
 }
 
-/// Refuses an `--out` that exists: a recording is never rewritten in place.
-fn fresh(out: &std::path::Path) -> Result<()> {
-    if out.exists() {
-        bail!(
-            "{} exists: a recording is never rewritten in place",
-            out.display()
-        );
+impl Written {
+    /// The sensor, once `--out` is known not to exist (a recording is
+    /// never rewritten in place).
+    fn sensor(&self) -> Result<hal_sim::imu::ImuSpec> {
+        if self.out.exists() {
+            bail!(
+                "{} exists: a recording is never rewritten in place",
+                self.out.display()
+            );
+        }
+        Ok(hal_sim::sensor::resolve(&self.sensor)?)
     }
-    Ok(())
+
+    /// What was written: the IMU samples and their rate, the fixes and
+    /// those outside the IMU's span.
+    fn counts(&self, rep: &import::ImportReport) -> String {
+        format!(
+            "wrote {}: {} IMU samples ({:.1} Hz), {} fixes ({} outside the IMU's span)",
+            self.out.display(),
+            rep.imu_samples,
+            rep.imu_rate_found_hz,
+            rep.fixes,
+            rep.fixes_outside
+        )
+    }
+
+    /// Writes `rec`, prints `text`, and the counts `rep` with --json.
+    fn save(
+        &self,
+        rec: &recording::Recording,
+        text: &str,
+        rep: &impl serde::Serialize,
+    ) -> Result<()> {
+        rec.write(&self.out).map_err(|e| anyhow::anyhow!("{e}"))?;
+        println!("{}", text.trim_end());
+        if let Some(j) = &self.json {
+            write_file(j, &serde_json::to_string_pretty(rep)?)?;
+        }
+        Ok(())
+    }
 }
 
 /// Runs `rins import`.
@@ -186,83 +208,55 @@ pub fn run(a: &Args) -> Result<()> {
 }
 
 fn comma(a: &CommaArgs) -> Result<()> {
-    fresh(&a.out)?;
     let input = import::comma::CommaInput {
         dir: a.dir.clone(),
         fix_sigma_h_m: a.fix_sigma_m,
-        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+        sensor: a.to.sensor()?,
     };
     let (rec, rep) = import::comma::import(&input)?;
-    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
     let odo = rec
         .moving
         .as_ref()
         .and_then(|m| m.odometer.as_ref())
         .map_or(0, Vec::len);
-    println!(
-        "wrote {}: {} IMU samples ({:.1} Hz), {} fixes at their epochs ({} outside the IMU's span), {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU)",
-        a.out.display(),
-        rep.imu_samples,
-        rep.imu_rate_found_hz,
-        rep.fixes,
-        rep.fixes_outside,
+    let text = format!(
+        "{}, the fixes at their epochs, {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU)",
+        a.to.counts(&rep)
     );
-    if let Some(j) = &a.json {
-        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
-    }
-    Ok(())
+    a.to.save(&rec, &text, &rep)
 }
 
 fn kf_gins(a: &KfGinsArgs) -> Result<()> {
-    fresh(&a.out)?;
     let input = import::kfgins::KfGinsInput {
         imu: a.imu_file.clone(),
         gnss: a.gnss.clone(),
         truth: a.truth.clone(),
-        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+        sensor: a.to.sensor()?,
     };
     let (rec, rep) = import::kfgins::import(&input)?;
-    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
-    println!(
-        "wrote {}: {} IMU samples ({:.1} Hz), {} fixes ({} outside the IMU's span){}",
-        a.out.display(),
-        rep.imu_samples,
-        rep.imu_rate_found_hz,
-        rep.fixes,
-        rep.fixes_outside,
-        if a.truth.is_some() {
-            ", truth.csv from the reference"
-        } else {
-            ""
-        }
-    );
-    if let Some(j) = &a.json {
-        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
-    }
-    Ok(())
+    let reference = if a.truth.is_some() {
+        ", truth.csv from the reference"
+    } else {
+        ""
+    };
+    let text = format!("{}{reference}", a.to.counts(&rep));
+    a.to.save(&rec, &text, &rep)
 }
 
 fn rtklib(a: &RtklibArgs) -> Result<()> {
-    fresh(&a.out)?;
     let input = RtklibInput {
         pos: a.pos.clone(),
         imu: a.imu_file.clone(),
         columns: a.columns.clone(),
         imu_tag: a.imu_tag.clone(),
         geoid_m: a.geoid_m,
-        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+        sensor: a.to.sensor()?,
     };
     let (rec, rep) = import::rtklib(&input)?;
-    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
-    println!("{}", import::report_text(&rep, &a.out));
-    if let Some(j) = &a.json {
-        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
-    }
-    Ok(())
+    a.to.save(&rec, &import::report_text(&rep, &a.to.out), &rep)
 }
 
 fn csv(a: &CsvArgs) -> Result<()> {
-    fresh(&a.out)?;
     let base = match a.base_deg.as_deref() {
         None => None,
         Some(&[r, p, h]) => Some([r, p, h]),
@@ -274,17 +268,12 @@ fn csv(a: &CsvArgs) -> Result<()> {
     let input = import::csv::CsvInput {
         imu: a.imu_file.clone(),
         columns: a.columns.clone(),
-        sensor: hal_sim::sensor::resolve(&a.sensor)?,
+        sensor: a.to.sensor()?,
         lat_deg: a.lat_deg,
         height_m: a.height_m,
         base,
         base_sigma_deg: [a.level_sigma_deg, a.heading_sigma_deg],
     };
     let (rec, rep) = import::csv::import(&input)?;
-    rec.write(&a.out).map_err(|e| anyhow::anyhow!("{e}"))?;
-    print!("{}", import::csv::report_text(&rep, &a.out));
-    if let Some(j) = &a.json {
-        write_file(j, &serde_json::to_string_pretty(&rep)?)?;
-    }
-    Ok(())
+    a.to.save(&rec, &import::csv::report_text(&rep, &a.to.out), &rep)
 }
