@@ -195,6 +195,8 @@ const NAVIGATE: Walk = Walk {
         changes("--gnss-position-only", &["{drive}", "--gnss", "--gnss-position-only", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--time-offset-s", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], NAV),
+        changes("--estimate-lever-arm", &["{fix}/walkrec", "--gnss", "--estimate-lever-arm", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
+        refused("--estimate-lever-arm", &["{rec}", "--estimate-lever-arm", "--out", "{out}/n"], &["--gnss"]),
         changes("--vehicle", &["{drive}", "--gnss", "--vehicle", "car", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         refused("--vehicle", &["{drive}", "--gnss", "--vehicle", "boat", "--out", "{out}/n"], &["boat"]),
         refused("--vehicle", &["{drive}", "--vehicle", "car", "--out", "{out}/n"], &["--gnss"]),

@@ -16,7 +16,10 @@ What pyins gets, and from where (rins's own recording, nothing more):
   floors rins applies) and NED velocities (0.05 m/s);
 - the start attitude rins's alignment found (trajectory.csv's first row)
   with its 1-sigma, and the sensor's datasheet noise and turn-on biases
-  (sensors/icm42605.toml's figures).
+  (sensors/icm42605.toml's figures);
+- the antenna's lever arm rins navigated with (`--lever-arm X,Y,Z`, m in
+  the body frame, forward-right-down in both: `rins navigate
+  --estimate-lever-arm` reports it), or none.
 It prints, per outage, the horizontal error at its end against the
 withheld fix, pyins's 1-sigma there and the share of the outage inside 3
 sigma: the columns rins's summary prints.
@@ -48,7 +51,12 @@ def main():
     ap.add_argument("rec")
     ap.add_argument("nav", help="rins navigate's output (its first row: the alignment)")
     ap.add_argument("--outage", action="append", default=[], help="START:LEN, s")
+    ap.add_argument("--lever-arm", default=None,
+                    help="X,Y,Z: the antenna from the IMU in the body frame, m")
     a = ap.parse_args()
+    lever = None
+    if a.lever_arm is not None:
+        lever = np.array([float(x) for x in a.lever_arm.split(",")])
     outages = [tuple(float(x) for x in o.split(":")) for o in a.outage]
 
     imu = pd.DataFrame(read_csv(f"{a.rec}/imu.csv")).astype(float)
@@ -76,10 +84,11 @@ def main():
     for q, sd, kind in kinds:
         part = lla[lla["quality"] == q] if "quality" in lla else lla
         if len(part):
-            meas.append(kind(part[["lat", "lon", "alt"]], sd))
+            meas.append(kind(part[["lat", "lon", "alt"]], sd, imu_to_antenna_b=lever))
     if "vn_mps" in lla:
         v = lla.rename(columns={"vn_mps": "VN", "ve_mps": "VE", "vd_mps": "VD"})
-        meas.append(measurements.NedVelocity(v[["VN", "VE", "VD"]], 0.05))
+        meas.append(measurements.NedVelocity(v[["VN", "VE", "VD"]], 0.05,
+                                             imu_to_antenna_b=lever))
 
     nav = read_csv(f"{a.nav}/trajectory.csv")
     first = nav[0]

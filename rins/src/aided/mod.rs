@@ -26,6 +26,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod lever;
 pub mod offset;
 mod plots;
 pub mod span;
@@ -60,6 +61,10 @@ pub struct AidedOptions {
     pub time_offset_s: f64,
     /// The vehicle's constraints ([`vehicle`]), when the base is one.
     pub vehicle: Option<vehicle::Vehicle>,
+    /// The antenna's position from the IMU in `b`, m, over the
+    /// recording's (`None`: the recording's; [`lever::estimate`] finds
+    /// it).
+    pub lever_b_m: Option<[f64; 3]>,
 }
 
 /// The innovation gate the CLI and the tools use unless told, sigmas.
@@ -82,6 +87,7 @@ impl AidedOptions {
             gnss_velocity: true,
             time_offset_s: 0.0,
             vehicle: None,
+            lever_b_m: None,
         }
     }
 }
@@ -223,6 +229,15 @@ fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
         .collect()
 }
 
+/// The antenna's lever arm the filter takes, `b`, m: the options' or the
+/// recording's (meta.toml's `[gnss] antenna_b_m`), else none.
+pub fn lever_b_m(rec: &Recording, opt: &AidedOptions) -> [f64; 3] {
+    let given = rec.moving.as_ref().and_then(|m| m.gnss_meta);
+    opt.lever_b_m
+        .or(given.map(|g| g.antenna_b_m))
+        .unwrap_or([0.0; 3])
+}
+
 /// The correlated GNSS error's 1-sigma (horizontal, vertical, m): its
 /// share [`GNSS_CORR_SHARE`] of the fixes' median (floored) variance, so
 /// that an RTK receiver's centimetres and a phone's metres each get their
@@ -315,7 +330,7 @@ fn navigate_t<T: Real>(
     let Some(fixes) = &mv.gnss else {
         bail!("gnss.csv is missing: --gnss needs the receiver's fixes")
     };
-    let lever_b = mv.gnss_meta.map_or([0.0; 3], |g| g.antenna_b_m);
+    let lever_b = lever_b_m(rec, opt);
     if rec.table.len() < 3 || rec.imu.len() < 2 {
         bail!("the recording has too few IMU samples or encoder reads");
     }

@@ -43,54 +43,73 @@ pub fn estimate(
     for k in -n..=n {
         let o = AidedOptions {
             time_offset_s: opt.time_offset_s + k as f64 * step_s,
-            outages: vec![],
-            // Every fix's NIS counts: a gate would drop the worst ones and
-            // lower the sum where the offset is wrong.
-            gate_sigma: UNGATED,
-            // Positions only: a receiver's velocity may lag its own
-            // positions (a filter inside it), which is not the clocks'.
-            gnss_velocity: false,
-            // The fixes alone: zero-velocity updates do not depend on the
-            // offset and only blur the fixes' residuals.
-            zupt: false,
             ..opt.clone()
         };
-        let run = navigate(rec, &o, &mut |_| {})?;
-        let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
-        let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
-        if dof == 0.0 {
-            bail!("no fix was used: no offset can be estimated");
-        }
-        let per = used.iter().map(|x| x.1).sum::<f64>() / dof;
-        grid.push((o.time_offset_s, per * dof, per));
+        let (total, per) = fixes_nis(rec, &o)?;
+        grid.push((o.time_offset_s, total, per));
         progress((k + n + 1) as f64 / (2 * n + 1) as f64);
     }
-    let best = (0..grid.len())
-        .min_by(|a, b| grid[*a].1.total_cmp(&grid[*b].1))
-        .unwrap_or(0);
-    if best == 0 || best + 1 == grid.len() {
-        bail!(
-            "the fixes' NIS is least at the grid's edge ({:+.3} s): the offset is beyond +-{span_s} s",
-            grid[best].0
-        );
-    }
-    // The parabola through the least point and its neighbours.
-    let (x0, y0) = (grid[best].0, grid[best].1);
-    let (ym, yp) = (grid[best - 1].1, grid[best + 1].1);
-    let c = (ym + yp - 2.0 * y0) / (2.0 * step_s * step_s);
-    let shift = if c > 0.0 {
-        (ym - yp) / (4.0 * c * step_s)
-    } else {
-        0.0
+    let Some((offset_s, sigma_s)) = least(&grid, step_s) else {
+        bail!("no offset estimated: an empty grid");
     };
-    let scale = grid[best].2.max(1.0);
+    if offset_s.is_nan() {
+        bail!("the fixes' NIS is least at the grid's edge: the offset is beyond +-{span_s} s");
+    }
     Ok(OffsetEstimate {
-        offset_s: x0 + shift.clamp(-step_s, step_s),
-        sigma_s: if c > 0.0 {
-            (scale / c).sqrt()
-        } else {
-            f64::INFINITY
-        },
+        offset_s,
+        sigma_s,
         grid,
     })
+}
+
+/// The fixes' NIS over a pre-pass run of `opt` (total, per degree of
+/// freedom): positions only (a receiver's velocity may lag its own
+/// positions: a filter inside it), every fix ungated (a gate would drop
+/// the worst ones and lower the sum where the tried value is wrong), no
+/// zero-velocity updates (they do not depend on the fixes and only blur
+/// their residuals), no outages.
+///
+/// # Errors
+/// A run that fails, or no fix used.
+pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<(f64, f64)> {
+    let o = AidedOptions {
+        outages: vec![],
+        gate_sigma: UNGATED,
+        gnss_velocity: false,
+        zupt: false,
+        ..opt.clone()
+    };
+    let run = navigate(rec, &o, &mut |_| {})?;
+    let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
+    let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
+    if dof == 0.0 {
+        bail!("no fix was used: nothing can be estimated from the fixes");
+    }
+    let total = used.iter().map(|x| x.1).sum::<f64>();
+    Ok((total, total / dof))
+}
+
+/// The least point of an evenly spaced grid of (value, total NIS, NIS per
+/// degree of freedom), refined by the parabola through it and its
+/// neighbours, and its 1-sigma: the change of 1 in the total NIS (its
+/// `-2 log` likelihood), scaled by the NIS per degree of freedom there
+/// when above 1 (an overconfident filter's likelihood is too sharp).
+/// NaN value when the least point is at the grid's edge (the minimum lies
+/// beyond it); infinite sigma when the NIS does not curve there (the
+/// value is not resolved by the fixes). None for an empty grid.
+pub fn least(grid: &[(f64, f64, f64)], step: f64) -> Option<(f64, f64)> {
+    let best = (0..grid.len()).min_by(|a, b| grid[*a].1.total_cmp(&grid[*b].1))?;
+    let (Some(lo), Some(hi)) = (
+        best.checked_sub(1).and_then(|i| grid.get(i)),
+        grid.get(best + 1),
+    ) else {
+        return Some((f64::NAN, f64::INFINITY));
+    };
+    let (x0, y0, per) = *grid.get(best)?;
+    let c = (lo.1 + hi.1 - 2.0 * y0) / (2.0 * step * step);
+    if c <= 0.0 {
+        return Some((x0, f64::INFINITY));
+    }
+    let shift = ((lo.1 - hi.1) / (4.0 * c * step)).clamp(-step, step);
+    Some((x0 + shift, (per.max(1.0) / c).sqrt()))
 }

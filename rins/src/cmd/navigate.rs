@@ -100,6 +100,11 @@ pub struct Args {
     /// around --time-offset-s) and navigate with it.
     #[arg(long, requires = "gnss")]
     pub estimate_time_offset: bool,
+    /// Estimate the antenna's lever arm in b (a pre-pass along each axis,
+    /// within 1 m of the sensor file's or meta.toml's) and navigate with
+    /// it; an axis the motion does not turn about is kept as given.
+    #[arg(long, requires = "gnss")]
+    pub estimate_lever_arm: bool,
     /// The base is a land vehicle (`car`): it does not slide sideways or
     /// leave the road. Its forward axis in b is found from the first
     /// straight driving with fixes and reported with its sigma.
@@ -305,6 +310,24 @@ pub fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
+/// The lever-arm estimate, one line: each component with its 1-sigma
+/// (or unresolved), and the fixes' NIS before and after.
+fn lever_line(e: &rins::aided::lever::LeverEstimate) -> String {
+    let parts: Vec<String> = (0..3)
+        .map(|i| match e.sigma_m[i] {
+            Some(s) => format!("{:+.3} +- {s:.3}", e.b_m[i]),
+            None => format!("{:+.3} (unresolved: as given)", e.b_m[i]),
+        })
+        .collect();
+    format!(
+        "antenna lever arm in b: {} m (given {:?}; the fixes' NIS per dof {:.2} -> {:.2})",
+        parts.join(", "),
+        e.given_b_m,
+        e.nis_per_dof[0],
+        e.nis_per_dof[1]
+    )
+}
+
 /// The sensor file's antenna lever arm over meta.toml's, said when they
 /// differ.
 fn antenna_from_sensor(rec: &mut recording::Recording, profile: &hal_sim::imu::ImuSpec) {
@@ -385,8 +408,22 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             .vehicle
             .as_deref()
             .and_then(rins::aided::vehicle::Vehicle::parse),
+        lever_b_m: None,
     };
     let mut opt = opt;
+    let lever = match a.estimate_lever_arm {
+        false => None,
+        true => {
+            let pb = progress_bar("lever arm");
+            let e = rins::aided::lever::estimate(rec, &opt, &mut |f| {
+                pb.set_position((f * 1000.0) as u64)
+            })?;
+            pb.finish_and_clear();
+            println!("{}", lever_line(&e));
+            opt.lever_b_m = Some(e.b_m);
+            Some(e)
+        }
+    };
     let offset = match a.estimate_time_offset {
         false => None,
         true => {
@@ -425,6 +462,9 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         let mut j = summary.json();
         if let (Some(e), Some(m)) = (&offset, j.as_object_mut()) {
             m.insert("time_offset".into(), serde_json::to_value(e)?);
+        }
+        if let (Some(e), Some(m)) = (&lever, j.as_object_mut()) {
+            m.insert("lever_arm".into(), serde_json::to_value(e)?);
         }
         write_file(p, &serde_json::to_string_pretty(&j)?)?;
     }

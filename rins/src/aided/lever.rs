@@ -1,0 +1,183 @@
+//! The antenna's lever arm, estimated by a pre-pass on the data, as the
+//! time offset is ([`super::offset`]): the run is navigated with the
+//! fixes' positions (ungated) for lever arms along each axis of `b` in
+//! turn, and the fixes' NIS, the `-2 log` likelihood of the arm, is least
+//! at the arm the motion says. Where the base turns, an arm `l` moves the
+//! antenna by `c_b_n l` about the IMU: a receiver with centimetre fixes
+//! sees centimetres of arm. An axis the motion does not turn about leaves
+//! the NIS flat along it: that component is kept as given and said to be
+//! unresolved.
+
+use super::offset::{fixes_nis, least};
+use super::AidedOptions;
+use anyhow::{bail, Result};
+use recording::Recording;
+
+/// How far from the given arm the first search looks, m (each axis): a
+/// car's roof antenna sits about a metre from a console IMU.
+pub const SPAN_M: f64 = 1.0;
+/// The first search's step, m.
+const COARSE_M: f64 = 0.1;
+/// The second search's step, m (about the first's least point, +-5
+/// steps).
+const FINE_M: f64 = 0.02;
+
+/// A lever-arm estimate.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LeverEstimate {
+    /// The arm the search started from (the sensor file's or
+    /// meta.toml's), `b`, m.
+    pub given_b_m: [f64; 3],
+    /// The antenna's position from the IMU in `b`, m.
+    pub b_m: [f64; 3],
+    /// Each component's 1-sigma, m (`None`: not resolved by the motion,
+    /// kept as given).
+    pub sigma_m: [Option<f64>; 3],
+    /// The fixes' NIS per degree of freedom with the given arm and with
+    /// the estimate.
+    pub nis_per_dof: [f64; 2],
+}
+
+/// The passes: each axis coarse then fine; then each fine again about the
+/// others' new values (the axes' NIS is not quite separable).
+const PASSES: [(usize, bool); 6] = [
+    (0, true),
+    (1, true),
+    (2, true),
+    (0, false),
+    (1, false),
+    (2, false),
+];
+
+/// Estimates the arm, starting from `opt.lever_b_m` (or the recording's).
+/// The 1-sigmas are the marginal ones: the inverse of the NIS's curvature
+/// over the resolved axes together (a central-difference Hessian), not
+/// each axis's own curvature, which holds the others fixed.
+///
+/// # Errors
+/// A run that fails, no fix used, or a least NIS at the first search's
+/// edge (the arm lies beyond [`SPAN_M`] of the given one).
+pub fn estimate(
+    rec: &Recording,
+    opt: &AidedOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<LeverEstimate> {
+    let given = super::lever_b_m(rec, opt);
+    let coarse = (SPAN_M / COARSE_M).round() as i64;
+    let runs = 3 * (2 * coarse + 1) + 6 * 11 + 21;
+    let mut nis = Nis {
+        rec,
+        opt,
+        done: 0,
+        runs,
+        progress,
+    };
+    let mut arm = given;
+    let mut resolved = [false; 3];
+    for (axis, first) in PASSES {
+        let rough = match first {
+            true => nis.line(&arm, axis, given[axis], COARSE_M, coarse)?.0,
+            false => arm[axis],
+        };
+        if rough.is_nan() {
+            bail!(
+                "the fixes' NIS is least at the search's edge along {}: the lever arm is beyond +-{SPAN_M} m of {:?}",
+                ["x", "y", "z"][axis],
+                given
+            );
+        }
+        let (fine, s) = nis.line(&arm, axis, rough, FINE_M, 5)?;
+        resolved[axis] = fine.is_finite() && s < SPAN_M;
+        if resolved[axis] {
+            arm[axis] = fine;
+        }
+    }
+    let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
+    Ok(LeverEstimate {
+        given_b_m: given,
+        b_m: arm,
+        sigma_m,
+        nis_per_dof: [nis.at(&given)?.1, nis.at(&arm)?.1],
+    })
+}
+
+/// The pre-pass's runs, counted for the progress.
+struct Nis<'a> {
+    rec: &'a Recording,
+    opt: &'a AidedOptions,
+    done: usize,
+    runs: i64,
+    progress: &'a mut dyn FnMut(f64),
+}
+
+impl Nis<'_> {
+    /// The fixes' NIS (total, per degree of freedom) with arm `l`.
+    fn at(&mut self, l: &[f64; 3]) -> Result<(f64, f64)> {
+        let o = AidedOptions {
+            lever_b_m: Some(*l),
+            ..self.opt.clone()
+        };
+        let r = fixes_nis(self.rec, &o)?;
+        self.done += 1;
+        (self.progress)((self.done as f64 / self.runs as f64).min(1.0));
+        Ok(r)
+    }
+
+    /// The least NIS along `axis` from `arm`, `centre +- n step` ([`least`]).
+    fn line(
+        &mut self,
+        arm: &[f64; 3],
+        axis: usize,
+        centre: f64,
+        step: f64,
+        n: i64,
+    ) -> Result<(f64, f64)> {
+        let mut grid = vec![];
+        for k in -n..=n {
+            let mut l = *arm;
+            l[axis] = centre + k as f64 * step;
+            let (total, per) = self.at(&l)?;
+            grid.push((l[axis], total, per));
+        }
+        Ok(least(&grid, step).unwrap_or((f64::NAN, f64::INFINITY)))
+    }
+
+    /// The resolved axes' marginal 1-sigmas: `2 H^-1`, `H` the total NIS's
+    /// Hessian at `arm` by central differences of two fine steps, scaled
+    /// by the NIS per degree of freedom there when above 1. None for an
+    /// unresolved axis, and for all when the resolved block is not
+    /// positive definite (the NIS is not a bowl there).
+    fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
+        let h = 2.0 * FINE_M;
+        let axes: Vec<usize> = (0..3).filter(|i| resolved[*i]).collect();
+        let (f0, per) = self.at(arm)?;
+        let mut shifted = |d: &[(usize, f64)]| -> Result<f64> {
+            let mut l = *arm;
+            for (i, s) in d {
+                l[*i] += s * h;
+            }
+            Ok(self.at(&l)?.0)
+        };
+        let n = axes.len();
+        let mut hess = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for (a, &i) in axes.iter().enumerate() {
+            hess[(a, a)] = (shifted(&[(i, 1.0)])? + shifted(&[(i, -1.0)])? - 2.0 * f0) / (h * h);
+            for (b, &j) in axes.iter().enumerate().skip(a + 1) {
+                let pp = shifted(&[(i, 1.0), (j, 1.0)])?;
+                let pm = shifted(&[(i, 1.0), (j, -1.0)])?;
+                let mp = shifted(&[(i, -1.0), (j, 1.0)])?;
+                let mm = shifted(&[(i, -1.0), (j, -1.0)])?;
+                hess[(a, b)] = (pp - pm - mp + mm) / (4.0 * h * h);
+                hess[(b, a)] = hess[(a, b)];
+            }
+        }
+        let mut out = [None; 3];
+        if let Some(ch) = hess.cholesky() {
+            let cov = ch.inverse() * (2.0 * per.max(1.0));
+            for (a, &i) in axes.iter().enumerate() {
+                out[i] = Some(cov[(a, a)].sqrt());
+            }
+        }
+        Ok(out)
+    }
+}
