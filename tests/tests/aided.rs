@@ -654,3 +654,58 @@ fn a_lever_arm_the_filter_is_not_told_is_found_from_the_fixes() {
     }
     assert!(found.iter().all(|e| e.nis_per_dof[1] < e.nis_per_dof[0]));
 }
+
+#[test]
+fn the_sigma_columns_nees_is_what_a_user_recomputes_from_trajectory_csv() {
+    // The summary's 9-dof diagonal NEES, recomputed as a user would: the
+    // trajectory.csv text, the truth rows once a second, the nine errors
+    // over their sigma columns, and the chi-square(9) 95 % bounds from a
+    // table (2.700, 19.023), not the summary's Wilson-Hilferty ones. Their
+    // shares agree to two seconds in the run's (the bounds differ in the
+    // third digit).
+    let p = ImuSpec::nav440();
+    let mut c = outages::config(DriveKind::City, &p, true, 2);
+    c.duration_s = 200.0;
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let run = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
+    let s = aided::summary(&rec, &run);
+    let text = aided::trajectory_csv(&run.rows);
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| head.iter().position(|h| *h == name).unwrap();
+    let truth = rec.moving.as_ref().unwrap().truth.as_deref().unwrap();
+    let (mut n, mut inside) = (0usize, 0usize);
+    for line in lines {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|x| x.parse().unwrap_or(f64::NAN))
+            .collect();
+        let t = v[col("t_s")];
+        if (t - t.round()).abs() > 1e-6 {
+            continue;
+        }
+        let Some(tr) = truth.iter().find(|r| (r.t_s - t).abs() < 1e-6) else {
+            continue;
+        };
+        let mut q = 0.0;
+        for (i, axis) in ["north_m", "east_m", "down_m"].iter().enumerate() {
+            q += ((tr.p_n_m[i] - v[col(axis)]) / v[col(&format!("sigma_{axis}"))]).powi(2);
+        }
+        for (i, axis) in ["vn_mps", "ve_mps", "vd_mps"].iter().enumerate() {
+            q += ((tr.v_n_mps[i] - v[col(axis)]) / v[col(&format!("sigma_{axis}"))]).powi(2);
+        }
+        for (i, axis) in ["roll_deg", "pitch_deg", "heading_deg"].iter().enumerate() {
+            let d = (tr.euler_deg[i] - v[col(axis)] + 540.0) % 360.0 - 180.0;
+            q += (d / v[col(&format!("sigma_{axis}"))]).powi(2);
+        }
+        n += 1;
+        inside += usize::from((2.700..=19.023).contains(&q));
+    }
+    let mine = inside as f64 / n as f64;
+    let theirs = s.nees_diag_in_95.unwrap();
+    println!("{n} seconds: recomputed {mine:.3}, summary {theirs:.3}");
+    assert!(
+        n > 150 && (mine - theirs).abs() <= 2.0 / n as f64,
+        "{mine} {theirs}"
+    );
+}

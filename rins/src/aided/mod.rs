@@ -190,6 +190,11 @@ pub struct AidedRun {
     /// The attitude's own NEES (3 degrees of freedom) at the same seconds:
     /// (time s, NEES).
     pub nees_attitude: Vec<(f64, f64)>,
+    /// The NEES a user computes from trajectory.csv alone, at the same
+    /// seconds: the nine errors (north, east, down, the three velocities,
+    /// roll, pitch, heading) over their sigma columns, squared and summed
+    /// (a diagonal covariance: the columns carry no correlations).
+    pub nees_diag: Vec<(f64, f64)>,
     /// The alignment, when the start attitude was not given.
     pub aligned: Option<align::Alignment>,
     /// The outages cut in: (start s, length s).
@@ -494,6 +499,9 @@ fn navigate_t<T: Real>(
         // east and down: `c_true = (I + [phi x]) c_est`).
         if k % (m.imu_rate_hz.round().max(1.0) as usize) == 0 {
             if let Some(tr) = recording::moving::truth_at(truth, t) {
+                if let Some(row) = run.rows.last() {
+                    run.nees_diag.push((t, diagonal_nees(row, &tr)));
+                }
                 let [r, p, h] = tr.euler_deg;
                 let c_true = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(r, p, h)));
                 let d = c_true * c_b_n.transpose();
@@ -548,6 +556,21 @@ fn navigate_t<T: Real>(
 
 /// The horizontal jump (m) between the last two rows: the last one's
 /// position less where the one before would have reached at its velocity.
+/// The nine errors of `row` against the truth over its own sigma
+/// columns, squared and summed (the angles wrapped to +-180 deg).
+fn diagonal_nees(row: &AidedRow, tr: &recording::moving::TruthRow) -> f64 {
+    let wrap = |d: f64| (d + 180.0).rem_euclid(360.0) - 180.0;
+    let t = &row.traj;
+    (0..3)
+        .map(|i| {
+            let p = (tr.p_n_m[i] - t.ned_m[i]) / row.sigma_p_m[i];
+            let v = (tr.v_n_mps[i] - t.v_mps[i]) / row.sigma_v_mps[i];
+            let a = wrap(tr.euler_deg[i] - t.rph_deg[i]) / row.sigma_att_deg[i];
+            p * p + v * v + a * a
+        })
+        .sum()
+}
+
 fn reinit_jump_m(rows: &[AidedRow]) -> f64 {
     match rows {
         [.., a, b] => {

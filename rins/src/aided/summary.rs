@@ -42,6 +42,10 @@ pub struct AidedSummary {
     pub nees_in_95: Option<f64>,
     /// The attitude's own mean NEES per degree of freedom (with truth).
     pub nees_attitude_per_dof: Option<f64>,
+    /// The fraction of seconds inside the 95 % bounds of the 9-dof NEES a
+    /// user computes from trajectory.csv's sigma columns alone (a
+    /// diagonal covariance), with truth.
+    pub nees_diag_in_95: Option<f64>,
     /// Zero-velocity updates, gate rejections, refusals, mechanization faults.
     pub zupts: u32,
     /// Zero-rotation updates (one per still window).
@@ -319,6 +323,15 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         s.nees_attitude_per_dof =
             Some(run.nees_attitude.iter().map(|x| x.1 / 3.0).sum::<f64>() / n);
     }
+    if !run.nees_diag.is_empty() {
+        let (lo, hi) = chi2_95_bounds(9);
+        let inside = run
+            .nees_diag
+            .iter()
+            .filter(|x| (lo..=hi).contains(&(x.1 / 9.0)))
+            .count();
+        s.nees_diag_in_95 = Some(inside as f64 / run.nees_diag.len() as f64);
+    }
     if !run.nees.is_empty() {
         let n = run.nees.len() as f64;
         s.nees_mean_per_dof = Some(run.nees.iter().map(|x| x.1 / x.2 as f64).sum::<f64>() / n);
@@ -393,6 +406,12 @@ impl AidedSummary {
                 "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds; position, velocity, attitude){}\n",
                 100.0 * f,
                 self.nees_attitude_per_dof.map_or(String::new(), |a| format!("; attitude alone {a:.2}"))
+            );
+        }
+        if let Some(d) = self.nees_diag_in_95 {
+            o += &format!(
+                "the sigma columns alone (9 dof, diagonal): {:.0} % of seconds inside the 95 % bounds\n",
+                100.0 * d
             );
         }
         o += &format!(
