@@ -1,22 +1,25 @@
 #!/usr/bin/env python3
 """The real walk through pyins's INS/GNSS filter (PyPI `python-ins`), on
 the same recording and the same outages as `rins navigate --gnss`: an
-independent implementation to set rins's figures beside. Not run in CI.
+independent implementation to set rins's figures beside
+(`tools/pyins-peer/compare` runs it, in CI too).
 
     python3 -m venv /tmp/pyins && /tmp/pyins/bin/pip install python-ins
     rins import rtklib ... --out runs/walk          (see the README)
-    rins navigate runs/walk --gnss --sensor icm42605 --out runs/walk-nav
-    /tmp/pyins/bin/python tools/pyins-peer/walk.py runs/walk runs/walk-nav \
-        --outage 20:10 --outage 45:10 --outage 70:10 --outage 95:10
+    /tmp/pyins/bin/python tools/pyins-peer/walk.py runs/walk \
+        --outage 20:10 --outage 45:10 --outage 70:10 --outage 95:10 \
+        --lever-arm 0.025,0.039,-0.037
 
 What pyins gets, and from where (rins's own recording, nothing more):
 - the IMU samples of imu.csv (already in the base frame, FRD), as rates;
 - the fixes of gnss.csv outside the outages: positions (RTK fixed and
   float as two measurements, each with its floor: 0.02 and 0.3 m, the
   floors rins applies) and NED velocities (0.05 m/s);
-- the start attitude rins's alignment found (trajectory.csv's first row)
-  with its 1-sigma, and the sensor's datasheet noise and turn-on biases
-  (sensors/icm42605.toml's figures);
+- the start attitude from an alignment of its own (`align` below: level
+  from the still start's mean specific force, heading from the first
+  seconds of walking by turning pyins's own strapdown velocity changes
+  onto the fixes'), not rins's; the sensor's datasheet noise and turn-on
+  biases (sensors/icm42605.toml's figures);
 - the antenna's lever arm rins navigated with (`--lever-arm X,Y,Z`, m in
   the body frame, forward-right-down in both: `rins navigate
   --estimate-lever-arm` reports it), or none.
@@ -41,6 +44,50 @@ class FloatPosition(measurements.Position):
     """RTK float fixes (their own sigma)."""
 
 
+def align(imu, increments, fixes, first_fix):
+    """pyins's start attitude: (roll, pitch, heading) deg and the level's
+    and heading's 1-sigma, deg.
+
+    Level: the mean specific force over the still start (the first 2 s;
+    FRD, at rest f = -g down). Heading: pyins's strapdown from rest with
+    heading 0 over the first 10 s of walking (from the first fix faster
+    than 0.5 m/s); its horizontal velocity changes over each 1 s between
+    fixes are a rotation of the fixes' by the heading (the least-squares
+    angle in closed form); its 1-sigma the spread of the single pairs'
+    angles (not divided down: the strapdown's drift over the window is
+    common to them)."""
+    still = imu[imu.index < imu.index[0] + 2.0]
+    f = still[["accel_x", "accel_y", "accel_z"]].mean().values
+    roll = math.degrees(math.atan2(-f[1], -f[2]))
+    pitch = math.degrees(math.atan2(f[0], math.hypot(f[1], f[2])))
+    level_sd = math.degrees(float(still[["accel_x", "accel_y"]].std().max()) / G0)
+    speed = np.hypot(fixes["vn_mps"], fixes["ve_mps"])
+    t_move = float(fixes.index[speed > 0.5][0])
+    pva = first_fix.copy()
+    pva["roll"], pva["pitch"], pva["heading"] = roll, pitch, 0.0
+    ins = strapdown.Integrator(pva).integrate(increments[increments.index <= t_move + 11.0])
+    win = fixes[(fixes.index >= t_move) & (fixes.index <= t_move + 10.0)]
+    cross = dot = 0.0
+    angles = []
+    for t in win.index:
+        t1 = t + 1.0
+        if t1 > win.index[-1]:
+            break
+        i0, i1 = ins.index.get_indexer([t, t1], method="nearest")
+        a = ins.iloc[i1][["VN", "VE"]].values - ins.iloc[i0][["VN", "VE"]].values
+        g = win.iloc[win.index.get_indexer([t1], method="nearest")[0]]
+        b = np.array([g["vn_mps"], g["ve_mps"]]) - np.array(
+            [win.loc[t]["vn_mps"], win.loc[t]["ve_mps"]])
+        cross += a[0] * b[1] - a[1] * b[0]
+        dot += a @ b
+        angles.append(math.atan2(a[0] * b[1] - a[1] * b[0], a @ b))
+    heading = math.degrees(math.atan2(cross, dot)) % 360.0
+    mean = math.atan2(cross, dot)
+    spread = [math.degrees((x - mean + math.pi) % (2 * math.pi) - math.pi) for x in angles]
+    heading_sd = float(np.sqrt(np.mean(np.square(spread))))
+    return roll, pitch, heading, max(level_sd, 0.05), heading_sd
+
+
 def read_csv(path):
     with open(path) as f:
         return list(csv.DictReader(f))
@@ -49,7 +96,6 @@ def read_csv(path):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("rec")
-    ap.add_argument("nav", help="rins navigate's output (its first row: the alignment)")
     ap.add_argument("--outage", action="append", default=[], help="START:LEN, s")
     ap.add_argument("--lever-arm", default=None,
                     help="X,Y,Z: the antenna from the IMU in the body frame, m")
@@ -90,15 +136,15 @@ def main():
         meas.append(measurements.NedVelocity(v[["VN", "VE", "VD"]], 0.05,
                                              imu_to_antenna_b=lever))
 
-    nav = read_csv(f"{a.nav}/trajectory.csv")
-    first = nav[0]
     f0 = fixes.iloc[0]
     pva = pd.Series({
         "lat": f0["lat_deg"], "lon": f0["lon_deg"], "alt": f0["height_m"],
-        "VN": 0.0, "VE": 0.0, "VD": 0.0,
-        "roll": float(first["roll_deg"]), "pitch": float(first["pitch_deg"]),
-        "heading": float(first["heading_deg"])})
+        "VN": 0.0, "VE": 0.0, "VD": 0.0, "roll": 0.0, "pitch": 0.0, "heading": 0.0})
     pva.name = imu.index[0]  # the first increment ends at the second sample
+    roll, pitch, heading, level_sd, heading_sd = align(imu, increments, fixes, pva)
+    print(f"pyins: own alignment roll {roll:.2f} pitch {pitch:.2f} heading {heading:.1f} deg, "
+          f"1-sigma level {level_sd:.2f} heading {heading_sd:.1f} deg")
+    pva["roll"], pva["pitch"], pva["heading"] = roll, pitch, heading
 
     # sensors/icm42605.toml: gyro 0.0038 deg/s/sqrt(Hz), turn-on 1 deg/s;
     # accel 70 ug/sqrt(Hz), turn-on 20 mg; scale 0.5 %, cross-axis 1.25 %.
@@ -109,7 +155,7 @@ def main():
         bias_sd=20e-3 * G0, noise=70e-6 * G0, bias_walk=0.04e-3 * G0 / 10,
         scale_misal_sd=np.full((3, 3), 0.01 / math.sqrt(2)) + np.diag([0.005 - 0.01 / math.sqrt(2)] * 3))
     r = filters.run_feedback_filter(
-        pva, 1.0, 0.05, float(first["sigma_roll_deg"]), float(first["sigma_heading_deg"]),
+        pva, 1.0, 0.05, level_sd, heading_sd,
         increments, gyro, accel, meas, time_step=10 * float(np.median(np.diff(grid))))
     traj, sd = r.trajectory, r.trajectory_sd
 

@@ -76,17 +76,27 @@ pub fn estimate(
     let mut resolved = [false; 3];
     for (axis, first) in PASSES {
         let rough = match first {
-            true => nis.line(&arm, axis, given[axis], COARSE_M, coarse)?.0,
-            false => arm[axis],
+            true => {
+                let (rough, _, grid) = nis.line(&arm, axis, given[axis], COARSE_M, coarse)?;
+                if rough.is_nan() {
+                    // Least at an edge: an arm beyond the span only when
+                    // the NIS says so (3 sigma below the given arm's);
+                    // else the axis is flat there: unresolved.
+                    if edge_evidence(&grid, coarse) < EDGE_SIGMAS * EDGE_SIGMAS {
+                        continue;
+                    }
+                    bail!(
+                        "the fixes' NIS is least at the search's edge along {}: the lever arm is beyond +-{SPAN_M} m of {:?}",
+                        ["x", "y", "z"][axis],
+                        given
+                    );
+                }
+                rough
+            }
+            false if resolved[axis] => arm[axis],
+            false => continue,
         };
-        if rough.is_nan() {
-            bail!(
-                "the fixes' NIS is least at the search's edge along {}: the lever arm is beyond +-{SPAN_M} m of {:?}",
-                ["x", "y", "z"][axis],
-                given
-            );
-        }
-        let (fine, s) = nis.line(&arm, axis, rough, FINE_M, 5)?;
+        let (fine, s, _) = nis.line(&arm, axis, rough, FINE_M, 5)?;
         resolved[axis] = fine.is_finite() && s < SPAN_M;
         if resolved[axis] {
             arm[axis] = fine;
@@ -99,6 +109,26 @@ pub fn estimate(
         sigma_m,
         nis_per_dof: [nis.at(&given)?.1, nis.at(&arm)?.1],
     })
+}
+
+/// A line search's grid: (value, total NIS, NIS per degree of freedom).
+type Grid = Vec<(f64, f64, f64)>;
+
+/// How many sigmas below the given arm's the NIS at a search's edge must
+/// be for the arm to be beyond the span (else the axis is unresolved).
+const EDGE_SIGMAS: f64 = 3.0;
+
+/// How far the least NIS of `grid` lies below that at its centre (index
+/// `centre`, the given arm), in units of a change of 1 in the
+/// likelihood's `-2 log` (scaled by the NIS per degree of freedom when
+/// above 1, as [`least`] scales its sigma).
+fn edge_evidence(grid: &Grid, centre: i64) -> f64 {
+    let at_given = usize::try_from(centre).ok().and_then(|i| grid.get(i));
+    let best = grid.iter().min_by(|a, b| a.1.total_cmp(&b.1));
+    match (at_given, best) {
+        (Some(g), Some(b)) => (g.1 - b.1) / b.2.max(1.0),
+        _ => 0.0,
+    }
 }
 
 /// The pre-pass's runs, counted for the progress.
@@ -123,7 +153,8 @@ impl Nis<'_> {
         Ok(r)
     }
 
-    /// The least NIS along `axis` from `arm`, `centre +- n step` ([`least`]).
+    /// The least NIS along `axis` from `arm`, `centre +- n step` ([`least`]),
+    /// and the grid.
     fn line(
         &mut self,
         arm: &[f64; 3],
@@ -131,7 +162,7 @@ impl Nis<'_> {
         centre: f64,
         step: f64,
         n: i64,
-    ) -> Result<(f64, f64)> {
+    ) -> Result<(f64, f64, Grid)> {
         let mut grid = vec![];
         for k in -n..=n {
             let mut l = *arm;
@@ -139,7 +170,8 @@ impl Nis<'_> {
             let (total, per) = self.at(&l)?;
             grid.push((l[axis], total, per));
         }
-        Ok(least(&grid, step).unwrap_or((f64::NAN, f64::INFINITY)))
+        let (x, s) = least(&grid, step).unwrap_or((f64::NAN, f64::INFINITY));
+        Ok((x, s, grid))
     }
 
     /// The resolved axes' marginal 1-sigmas: `2 H^-1`, `H` the total NIS's
