@@ -67,13 +67,13 @@ pub fn estimate(
 /// positions: a filter inside it), every fix ungated (a gate would drop
 /// the worst ones and lower the sum where the tried value is wrong), no
 /// zero-velocity updates (they do not depend on the fixes and only blur
-/// their residuals), no outages.
+/// their residuals). The outages cut in stay cut: their fixes are the
+/// reference, which nothing the run uses may have seen.
 ///
 /// # Errors
 /// A run that fails, or no fix used.
 pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<(f64, f64)> {
     let o = AidedOptions {
-        outages: vec![],
         gate_sigma: UNGATED,
         gnss_velocity: false,
         zupt: false,
