@@ -320,7 +320,7 @@ fn lever_line(e: &rins::aided::lever::LeverEstimate) -> String {
         })
         .collect();
     format!(
-        "antenna lever arm in b: {} m (given {:?}; the fixes' NIS per dof {:.2} -> {:.2})",
+        "antenna lever arm in b: {} m (given {:?}; the fixes' NIS per dof {:.3} -> {:.3})",
         parts.join(", "),
         e.given_b_m,
         e.nis_per_dof[0],
