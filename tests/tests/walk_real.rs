@@ -194,19 +194,20 @@ fn the_imu_to_gnss_offset_is_found_where_origin_md_measured_it() {
 fn the_antenna_is_where_the_fixes_put_it_and_the_outages_agree() {
     // The real walk: ORIGIN.md reads the author's configuration as the
     // antenna 5 cm to the IMU's left (the sensor file's [0, -0.05, 0]).
-    // The fixes (RTK, 2 cm) say otherwise: the pre-pass's NIS falls by
-    // half with the arm it finds, to the right of the IMU. The check
-    // independent of the pre-pass: the outages it never saw (it navigates
-    // without any) end closer to the withheld fixes with its arm, every
-    // one of the 10 s outages.
+    // The fixes (RTK, 2 cm) say otherwise: with the 10 s outages cut in
+    // (their fixes withheld from the pre-pass too), the NIS per degree of
+    // freedom falls by more than 30 % with the arm it finds (measured
+    // 1.78 -> 1.09), to the right of the IMU. The check independent of
+    // the pre-pass: the outages, whose withheld fixes it never saw, end
+    // closer to those fixes with its arm, every one of them.
     let (rec, _) = rtklib(&input()).unwrap();
-    let e = rins::aided::lever::estimate(&rec, &opts(vec![]), &mut |_| {}).unwrap();
+    let outages = vec![(20.0, 10.0), (45.0, 10.0), (70.0, 10.0), (95.0, 10.0)];
+    let e = rins::aided::lever::estimate(&rec, &opts(outages.clone()), &mut |_| {}).unwrap();
     println!("{e:?}");
     assert_eq!(e.given_b_m, [0.0, -0.05, 0.0]);
-    assert!(e.nis_per_dof[1] < 0.6 * e.nis_per_dof[0], "{e:?}");
+    assert!(e.nis_per_dof[1] < 0.7 * e.nis_per_dof[0], "{e:?}");
     let sy = e.sigma_m[1].unwrap();
     assert!(e.b_m[1] - 3.0 * sy > 0.0, "{e:?}");
-    let outages = vec![(20.0, 10.0), (45.0, 10.0), (70.0, 10.0), (95.0, 10.0)];
     let ends = |lever: Option<[f64; 3]>| {
         let o = AidedOptions {
             lever_b_m: lever,
