@@ -19,6 +19,20 @@ fn opts(p: &ImuSpec) -> AidedOptions {
     AidedOptions::new(p.clone())
 }
 
+/// A simulated city drive of `p` (rotary or still table, `seed`, the
+/// receiver's outages `gaps`: start s, length s) cut to `seconds`.
+fn city_drive(
+    p: &ImuSpec,
+    rotary: bool,
+    seed: u64,
+    gaps: &[(f64, f64)],
+    seconds: f64,
+) -> Recording {
+    let mut c = outages::config_with(DriveKind::City, p, rotary, seed, gaps);
+    c.duration_s = seconds;
+    simulate(&c, &mut |_| {}).unwrap()
+}
+
 /// `rins navigate --gnss --f32`: the board's arithmetic.
 fn navigate_f32(rec: &Recording, p: &ImuSpec) -> aided::AidedRun {
     let o = AidedOptions {
@@ -31,9 +45,7 @@ fn navigate_f32(rec: &Recording, p: &ImuSpec) -> aided::AidedRun {
 #[test]
 fn a_drive_recording_round_trips_with_its_gnss_and_truth() {
     let p = ImuSpec::nav440();
-    let mut c = outages::config(DriveKind::City, &p, true, 4);
-    c.duration_s = 120.0;
-    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let rec = city_drive(&p, true, 4, &outages::OUTAGES, 120.0);
     let dir = std::env::temp_dir().join(format!("rins-drive-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     rec.write(&dir).unwrap();
@@ -218,9 +230,7 @@ fn the_f32_board_navigation_follows_its_f64_twin_through_a_drive() {
 /// The board's program on the host (the QEMU test's twin) through a drive.
 fn board_drive(seconds: f64, outages: &[(f64, f64)], opt: TwinOptions) -> (TwinRun, Recording) {
     let p = ImuSpec::icm42688();
-    let mut c = outages::config_with(DriveKind::City, &p, true, 5, outages);
-    c.duration_s = seconds;
-    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let rec = city_drive(&p, true, 5, outages, seconds);
     let bytes = rins::qemu_replay::build(&rec, 16_384).unwrap().bytes;
     (twin::run(&bytes, opt), rec)
 }
@@ -364,9 +374,7 @@ fn an_aided_board_stopped_by_a_fault_navigates_on_after_start() {
     use firmware::replay::{decode, record_body, Event, Header, Sensors, HEADER, RECORD_HEAD};
     use protocol::Command;
     let p = ImuSpec::icm42688();
-    let mut c = outages::config_with(DriveKind::City, &p, true, 5, &[]);
-    c.duration_s = 120.0;
-    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let rec = city_drive(&p, true, 5, &[], 120.0);
     let bytes = rins::qemu_replay::build(&rec, 16_384).unwrap().bytes;
     let h = Header::decode(&bytes[..HEADER]).unwrap();
     let tuning = firmware::replay::tuning(&h, firmware::tuning::board());
@@ -455,9 +463,7 @@ fn a_filter_kilometres_off_after_an_outage_is_back_within_10_s_of_fixes() {
     // 1.9 km and 3.8 km, 648 components refused).
     let p = ImuSpec::icm42688();
     let outage = (120.0, 60.0);
-    let mut c = outages::config_with(DriveKind::City, &p, false, 5, &[outage]);
-    c.duration_s = 240.0;
-    let mut rec = simulate(&c, &mut |_| {}).unwrap();
+    let mut rec = city_drive(&p, false, 5, &[outage], 240.0);
     let clean = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
     assert_eq!(clean.reinits, 0, "no re-initialisation on a clean drive");
     for r in rec.imu.iter_mut() {
@@ -509,9 +515,7 @@ fn position_only_fixes_aid_the_filter() {
     // the fixes' own (1.5 m per axis: 2.1 m horizontal rms). Measured:
     // 1.57 m position-only, 0.65 m with velocity.
     let p = ImuSpec::nav440();
-    let mut c = outages::config_with(DriveKind::City, &p, true, 3, &[(120.0, 30.0)]);
-    c.duration_s = 300.0;
-    let mut rec = simulate(&c, &mut |_| {}).unwrap();
+    let mut rec = city_drive(&p, true, 3, &[(120.0, 30.0)], 300.0);
     let with = aided::summary(
         &rec,
         &aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap(),
@@ -544,9 +548,7 @@ fn a_known_clock_offset_is_recovered_from_the_fixes() {
     // early on the IMU's clock (the IMU 0.1 s late); the pre-pass must
     // find +0.1 s within its own 3 sigma and a sample period.
     let p = ImuSpec::nav440();
-    let mut c = outages::config(DriveKind::City, &p, true, 6);
-    c.duration_s = 120.0;
-    let mut rec = simulate(&c, &mut |_| {}).unwrap();
+    let mut rec = city_drive(&p, true, 6, &outages::OUTAGES, 120.0);
     for f in rec.moving.as_mut().unwrap().gnss.as_mut().unwrap() {
         f.t_s -= 0.1;
     }
@@ -664,9 +666,7 @@ fn the_sigma_columns_nees_is_what_a_user_recomputes_from_trajectory_csv() {
     // shares agree to two seconds in the run's (the bounds differ in the
     // third digit).
     let p = ImuSpec::nav440();
-    let mut c = outages::config(DriveKind::City, &p, true, 2);
-    c.duration_s = 200.0;
-    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let rec = city_drive(&p, true, 2, &outages::OUTAGES, 200.0);
     let run = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
     let s = aided::summary(&rec, &run);
     let text = aided::trajectory_csv(&run.rows);
@@ -720,9 +720,7 @@ fn a_metre_receiver_leaves_an_axis_unresolved_not_an_error() {
     // as given and said so. The horizontal ones within 3 sigma of the truth
     // (measured on three drives: within 2.2 sigma, y 0.3-0.45 m right).
     let p = ImuSpec::nav440();
-    let mut c = outages::config(DriveKind::City, &p, true, 1);
-    c.duration_s = 300.0;
-    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let rec = city_drive(&p, true, 1, &outages::OUTAGES, 300.0);
     let e = aided::lever::estimate(&rec, &opts(&p), &mut |_| {}).unwrap();
     println!("{e:?}");
     assert_eq!((e.sigma_m[2], e.b_m[2]), (None, -0.8), "{e:?}");
