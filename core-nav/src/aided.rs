@@ -63,7 +63,7 @@
 
 use crate::attitude::quat_to_dcm;
 use crate::earth::{earth_rate_n, transport_rate_n, GeoPoint};
-use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma, Workspace};
+use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma, Workspace, I_V};
 use crate::real::Real;
 use crate::strapdown::{ImuSample, Strapdown, StrapdownConfig};
 use crate::table::{q_s_b, Axis, TableAngle};
@@ -130,6 +130,14 @@ pub const GNSS_CORR_SHARE: f64 = 0.5;
 /// velocity from the last ([`AidedCounts::reinits`]): three fixes (3 s at
 /// 1 Hz) tell a lost filter from one bad fix.
 pub const REINIT_FIXES: usize = 3;
+
+/// The most a still window's zero velocity may disagree with the filter's
+/// own velocity: the hypothesis's NIS over three degrees of freedom
+/// (`v^T (P_v + R)^-1 v`, `R` the update's own variance), chi-square(3)'s
+/// 1e-6 tail. The spread test alone calls a smooth pull-away from a stop
+/// still (a steady push has no spread); a filter that knows it moves at
+/// 1.5 m/s +- 6 mm/s is not parked.
+pub const STILL_VELOCITY_NIS: f64 = 30.66;
 
 /// The slack of the agreement test, in sigmas of the two fixes' combined
 /// horizontal error.
@@ -294,6 +302,10 @@ pub struct AidedCounts {
     /// refused [`REINIT_FIXES`] times in a row while they agreed among
     /// themselves.
     pub reinits: u32,
+    /// Windows the detector called still that the filter's own velocity
+    /// refuted ([`STILL_VELOCITY_NIS`]): no zero-velocity or zero-rotation
+    /// update made.
+    pub still_refuted: u32,
 }
 
 /// The aided navigator's solution at a sample ([`AidedNav::solution`]):
@@ -593,6 +605,7 @@ impl AidedNav<f32> {
             fixes_replaced: 0,
             corrections_refused: 0,
             reinits: 0,
+            still_refuted: 0,
         },
     };
 }
@@ -1043,6 +1056,13 @@ impl<T: Real> AidedNav<T> {
         if self.cfg.zupt && self.zupt_due && !corrected {
             self.zupt_due = false;
             self.still = self.filled == ZUPT_WINDOW && self.is_still();
+            if self.still
+                && self.evals > ZUPT_START_EVALS
+                && !self.velocity_allows_still(&st.v_n, dt)
+            {
+                self.still = false;
+                self.counts.still_refuted = self.counts.still_refuted.saturating_add(1);
+            }
             if self.still && self.evals > ZUPT_START_EVALS {
                 if self.steps.wrapping_sub(self.zaru_at) >= ZUPT_WINDOW as u32 {
                     self.zaru_at = self.steps;
@@ -1085,6 +1105,19 @@ impl<T: Real> AidedNav<T> {
             self.counts.zupts = self.counts.zupts.saturating_add(1);
         }
         ok
+    }
+
+    /// Whether zero velocity is within [`STILL_VELOCITY_NIS`] of the
+    /// filter's velocity `v_n` (m/s, `n`) and its covariance, with the
+    /// zero-velocity update's own variance over samples `dt` s apart.
+    fn velocity_allows_still(&self, v_n: &Vector3<T>, dt: T) -> bool {
+        let r = self.zupt_sigma(dt);
+        let s = self.kf.p.fixed_view::<3, 3>(I_V, I_V).into_owned()
+            + Matrix3::from_diagonal_element(r * r);
+        match s.cholesky() {
+            Some(c) => v_n.dot(&c.solve(v_n)) <= T::lit(STILL_VELOCITY_NIS),
+            None => false,
+        }
     }
 
     /// The last fix's velocity update, waiting since the sample before:

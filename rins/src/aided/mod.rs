@@ -178,6 +178,8 @@ pub struct AidedRun {
     pub zupts: u32,
     /// Zero-rotation updates made (one per still window).
     pub zarus: u32,
+    /// Still windows the filter's own velocity refuted (no update made).
+    pub still_refuted: u32,
     /// Re-initialisations of position and velocity from fixes the gate
     /// kept refusing while they agreed among themselves.
     pub reinits: u32,
@@ -546,6 +548,7 @@ fn navigate_t<T: Real>(
     run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
     run.zupts = an.counts.zupts;
     run.zarus = an.counts.zarus;
+    run.still_refuted = an.counts.still_refuted;
     run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
     run.vehicle = vaid.map(|v| v.report);

@@ -50,6 +50,9 @@ pub struct AidedSummary {
     pub zupts: u32,
     /// Zero-rotation updates (one per still window).
     pub zarus: u32,
+    /// Windows the detector called still that the filter's own velocity
+    /// refuted (`core_nav::aided::STILL_VELOCITY_NIS`): no update made.
+    pub still_refuted: u32,
     /// See `zupts`.
     pub rejected: u32,
     /// See `zupts`.
@@ -183,6 +186,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     let mut s = AidedSummary {
         zupts: run.zupts,
         zarus: run.zarus,
+        still_refuted: run.still_refuted,
         reinits: run.reinits,
         rejected: run.rejected,
         refused: run.refused,
@@ -418,6 +422,12 @@ impl AidedSummary {
             "zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
             self.zupts, self.zarus, self.rejected, self.refused, self.faults, self.reinits
         );
+        if self.still_refuted > 0 {
+            o += &format!(
+                "  still windows the filter's own velocity refuted (moving, no update): {}\n",
+                self.still_refuted
+            );
+        }
         for r in &self.reinit_at {
             o += &match r.after_outage {
                 Some([a, l]) => format!(

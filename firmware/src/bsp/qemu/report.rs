@@ -101,8 +101,15 @@ pub fn report(nav: &mut NavTask<'static>, h: &Harness, host: Option<Outcome>, st
     if let Some(a) = nav.nav.aided() {
         let c = a.counts;
         hprintln!(
-            "{}: GNSS fixes used {} (late {}), zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}",
-            name, c.fixes_used, fixes_late, c.zupts, c.zarus, a.kf.rejected, a.kf.refused
+            "{}: GNSS fixes used {} (late {}), zero-velocity updates {}, zero-rotation updates {}, still windows refuted {}, gate rejections {}, refused {}",
+            name,
+            c.fixes_used,
+            fixes_late,
+            c.zupts,
+            c.zarus,
+            c.still_refuted,
+            a.kf.rejected,
+            a.kf.refused
         );
     }
     let got = outcome(&nav.nav);
