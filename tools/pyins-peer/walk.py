@@ -169,11 +169,17 @@ def main():
                 pd.Series({"lat": f["lat_deg"], "lon": f["lon_deg"], "alt": f["height_m"]}))
             j = sd.index.get_indexer([t], method="nearest")[0]
             sig = math.hypot(sd.iloc[j]["north"], sd.iloc[j]["east"])
-            rows.append((math.hypot(e[0], e[1]), sig))
-        end, sig = rows[-1]
-        share = sum(1 for e, sg in rows if e <= 3 * sg) / len(rows)
+            rows.append((math.hypot(e[0], e[1]), sig, abs(e[2]), sd.iloc[j]["down"]))
+        end, sig = rows[-1][:2]
+        share = sum(1 for e, sg, _, _ in rows if e <= 3 * sg) / len(rows)
         print(f"pyins: outage at {s:.0f} s for {l:.0f} s: horizontal error at its end "
               f"{end:.2f} m, 1-sigma {sig:.1f} m, {100 * share:.0f} % inside 3 sigma")
+        # The height as rins's summary gives it (not "at its end": the
+        # compare script reads that line as the horizontal's).
+        ev, sv = rows[-1][2:]
+        vshare = sum(1 for _, _, e, sg in rows if e <= 3 * sg) / len(rows)
+        print(f"pyins:   its height: {ev:.2f} m off when it ended (sigma {sv:.2f} m), "
+              f"{100 * vshare:.0f} % of it inside 3 sigma")
 
 
 if __name__ == "__main__":

@@ -115,6 +115,15 @@ pub struct OutageError {
     /// The share of its samples whose horizontal error is inside 3 times
     /// the filter's horizontal 1-sigma (outages cut in, with a reference).
     pub within_3_sigma: Option<f64>,
+    /// The height's error at its end (its magnitude), m, and the filter's
+    /// height 1-sigma there, m (outages cut in, with a reference): the
+    /// vertical channel a user reads in `sigma_down_m`.
+    pub end_height_error_m: Option<f64>,
+    /// See `end_height_error_m`.
+    pub end_height_sigma_m: Option<f64>,
+    /// The share of its samples whose height error is inside 3 times the
+    /// filter's height 1-sigma.
+    pub height_within_3_sigma: Option<f64>,
 }
 
 /// The receiver's solution as a reference: each fix's position as offsets
@@ -183,6 +192,12 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
                 .sqrt(),
         )
     };
+    // The height's error and its 1-sigma at each row.
+    let v_err = |i: usize| -> Option<(f64, f64)> {
+        let r = run.rows.get(i)?;
+        let tr = recording::moving::truth_at(truth, r.traj.t_s)?;
+        Some(((tr.p_n_m[2] - r.traj.ned_m[2]).abs(), r.sigma_p_m[2]))
+    };
     let mut s = AidedSummary {
         zupts: run.zupts,
         zarus: run.zarus,
@@ -233,15 +248,24 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
                 .map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1]))
         };
         let end = errs.last().copied();
+        let v_errs: Vec<(f64, f64)> = inside.iter().filter_map(|i| v_err(*i)).collect();
         s.outages.push(OutageError {
             start_s: a,
             len_s: l,
             end_error_m: end.map(|e| e.1),
             max_error_m: errs.iter().map(|e| e.1).reduce(f64::max),
-            end_sigma_m: end.map_or(0.0, |e| sigma(e.0)),
+            end_sigma_m: end
+                .map(|e| e.0)
+                .or(inside.last().copied())
+                .map_or(f64::NAN, sigma),
             within_3_sigma: (!errs.is_empty()).then(|| {
                 errs.iter().filter(|(i, e)| *e <= 3.0 * sigma(*i)).count() as f64
                     / errs.len() as f64
+            }),
+            end_height_error_m: v_errs.last().map(|e| e.0),
+            end_height_sigma_m: v_errs.last().map(|e| e.1),
+            height_within_3_sigma: (!v_errs.is_empty()).then(|| {
+                v_errs.iter().filter(|(e, sd)| *e <= 3.0 * sd).count() as f64 / v_errs.len() as f64
             }),
         });
     }
@@ -256,8 +280,11 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
                 len_s: gap,
                 end_error_m: h_err(b - 1),
                 max_error_m: errs.iter().copied().reduce(f64::max),
-                end_sigma_m: last.map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1])),
+                end_sigma_m: last.map_or(f64::NAN, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1])),
                 within_3_sigma: None,
+                end_height_error_m: None,
+                end_height_sigma_m: None,
+                height_within_3_sigma: None,
             });
         } else if gap <= 2.0 / rate {
             sq.extend((a..b).filter_map(h_err).map(|e| e * e));
@@ -399,6 +426,18 @@ impl AidedSummary {
                 g.end_sigma_m,
                 g.within_3_sigma.map_or(String::new(), |w| format!(", {:.0} % of it inside 3 sigma", 100.0 * w))
             );
+            // Not "at its end" nor "1-sigma N m, N %": scripts read those
+            // as the horizontal's.
+            if let (Some(e), Some(sd), Some(w)) = (
+                g.end_height_error_m,
+                g.end_height_sigma_m,
+                g.height_within_3_sigma,
+            ) {
+                o += &format!(
+                    "  its height: {e:.2} m off when it ended (sigma {sd:.2} m), {:.0} % of it inside 3 sigma\n",
+                    100.0 * w
+                );
+            }
         }
         o += &format!(
             "NIS per component {:.2} ({:.0} % of fixes inside their 95 % bounds)\n",
