@@ -67,13 +67,16 @@ mod app {
         hw::freeze_for_debugger(&dp.DBGMCU);
         hw::start_cycle_counter(&mut core.DCB, &mut core.DWT, core.SYST);
         let board = hw::Board::new(dp);
-        let start = hw::clock_start(&board.tim5);
         let mut flash = board.flash;
-        // The only erases: here, before the watchdog and the tick start.
+        // The only erases: here, before the tick starts (up to 4 s: the
+        // watchdog runs at its boot period, `hw::BoardWatchdog`).
         let journal = match Journal::open(&mut flash, hw::JOURNAL) {
             Ok(j) => j,
             Err(_) => Journal::blank(hw::JOURNAL),
         };
+        // The boot's time is the end of the erases (the IMU's silence is
+        // timed from the link task's first run, `tasks::Window`).
+        let start = hw::clock_start(&board.tim5);
         let boot = Boot {
             now_us: u64::from(start),
             reset,
@@ -92,7 +95,7 @@ mod app {
         #[cfg(feature = "qemu")]
         hw::sensors_at_init(link);
         let mut wdg = board.wdg;
-        wdg.start();
+        wdg.run_period();
         hw::enable_interrupts(link.sensors());
         (
             Shared {
@@ -210,9 +213,12 @@ mod app {
         if out.motor_off {
             cx.shared.motor.lock(|m| crate::tasks::Motor::set(m, 0.0));
         }
-        if out.tx_pending {
-            cx.shared.usart.lock(hw::listen_tx);
-        }
+        cx.shared.usart.lock(|u| {
+            hw::rearm_line_errors(u);
+            if out.tx_pending {
+                hw::listen_tx(u);
+            }
+        });
         hw::after_link(cx.local.link);
         Stats::worst(&hw::STATS.link_worst, hw::since(c0));
     }

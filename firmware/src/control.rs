@@ -36,9 +36,9 @@ pub struct ControlConfig {
 impl Default for ControlConfig {
     fn default() -> Self {
         Self {
-            counts_per_rev: 16_384,
+            counts_per_rev: crate::rig::RIG.counts_per_rev,
             limits: Limits::default(),
-            motor: MotorModel::default(),
+            motor: crate::rig::motor(),
             // The rate loop runs at 1 kHz with 25 Hz bandwidth (a 100 Hz
             // loop left the motor's cogging ripple at 0.35-0.68 deg/s RMS).
             bandwidth_hz: 25.0,

@@ -125,6 +125,25 @@ pub trait RxDma {
     fn remaining(&self) -> u32;
     /// The ring's byte `i` (`i < LEN`).
     fn byte(&self, i: u32) -> u8;
+    /// Restarts after a transfer error (which turns the stream off): how
+    /// many so far (wrapping), the writer's position when the last one
+    /// stopped it and the position it started again from (a whole ring's
+    /// start: NDTR and M0AR written anew, the half rings counted to it).
+    /// A writer that never stops: none.
+    fn restarted(&self) -> Restart {
+        Restart::default()
+    }
+}
+
+/// A receive stream's restarts ([`RxDma::restarted`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Restart {
+    /// Restarts so far, wrapping.
+    pub count: u32,
+    /// The writer's position (bytes written, wrapping) when it stopped.
+    pub stopped_at: u32,
+    /// The position it went on from.
+    pub from: u32,
 }
 
 /// An oscillator the PLL can take.

@@ -3,7 +3,7 @@
 //! flash sectors reserved in `memory.x`.
 //!
 //! The STM32F405 has one flash bank: while a sector is erased (about a
-//! second for 128 KiB) every instruction fetch from flash stalls, the
+//! second for 128 KiB, two at most) every instruction fetch from flash stalls, the
 //! control tick's included, and the watchdog would reset the chip half-way.
 //! So:
 //!
@@ -21,6 +21,12 @@
 //!   number across both sectors is the record.
 
 use protocol::record::{Record, RECORD_LEN};
+
+/// The longest a journal sector's erase takes on the board, µs: a
+/// 128 KiB sector at x32 parallelism (2.7-3.6 V) takes 1 s typically and
+/// 2 s at most by the STM32F405 datasheet (DS8626, flash memory
+/// programming, t_ERASE128KB). A boot that moves the journal erases two.
+pub const ERASE_WORST_US: u32 = 2_000_000;
 
 /// Bytes in a flash word (the F405 programs 32 bits at 2.7-3.6 V).
 pub const WORD: usize = 4;

@@ -33,17 +33,12 @@ pub const ICM42688_FILTER: AidedConfig = AidedConfig {
     zupt_noise: ZuptNoise {
         sigma_f_mps2: SIGMA_F,
         sigma_w_radps: SIGMA_W,
-        sigma_table_rate_radps: SIGMA_TABLE_RATE,
+        sigma_table_rate_radps: crate::rig::SIGMA_TABLE_RATE_RADPS,
     },
 };
 
-/// The table rate's error over the detector's window, rad/s
-/// (`core_nav::aided::table_rate_sigma_radps` of the 16,384-count
-/// encoder's read at 100 Hz).
-const SIGMA_TABLE_RATE: f64 = 0.000_313_122_517_129_361_35;
-
 /// The board's tuning: the tick's and navigation's defaults (1 kHz rate
-/// loop at 25 Hz bandwidth, 16,384-count encoder, 60 s + 60 s calibration,
+/// loop at 25 Hz bandwidth, the rig's encoder and motor, 60 s + 60 s calibration,
 /// a 400 ms fix horizon) and the ICM-42688-P's filter.
 pub fn board() -> Tuning {
     Tuning {

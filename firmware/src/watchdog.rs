@@ -1,4 +1,4 @@
-//! The watchdog's rule: the hardware watchdog (IWDG, 100 ms) is fed only
+//! The watchdog's rule: the hardware watchdog (IWDG, [`RUN`]) is fed only
 //! when every task that should be running has made progress since the last
 //! feed. Each task bumps its own counter; the background task checks them
 //! and feeds. A control tick that stopped (a hung IMU), a navigation task
@@ -9,6 +9,56 @@
 //! reports instead of resetting every 100 ms.
 
 use core::sync::atomic::{AtomicU32, Ordering};
+
+/// The IWDG's clock, the LSI: 17 kHz at least, 32 kHz typically, 47 kHz at
+/// most over voltage and temperature (the STM32F405 datasheet, DS8626,
+/// LSI oscillator characteristics), Hz. The IWDG's period is known only
+/// within this range.
+pub const LSI_HZ: [u32; 3] = [17_000, 32_000, 47_000];
+
+/// An IWDG setting (RM0090 21.4): the prescaler register PR (the LSI
+/// divided by `4 << pr`, `pr` 0-6) and the reload RLR (0-4095); the
+/// counter reaches 0, and resets the chip, `(rlr + 1) * (4 << pr)` LSI
+/// periods after a feed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Iwdg {
+    /// PR, 0-6.
+    pub pr: u8,
+    /// RLR, 0-4095.
+    pub rlr: u16,
+}
+
+impl Iwdg {
+    /// The period with the LSI at `lsi_hz`, µs.
+    pub const fn period_us(self, lsi_hz: u32) -> u64 {
+        (self.rlr as u64 + 1) * (4u64 << self.pr) * 1_000_000 / lsi_hz as u64
+    }
+    /// The shortest period (the LSI at its fastest), µs.
+    pub const fn shortest_us(self) -> u64 {
+        self.period_us(LSI_HZ[2])
+    }
+    /// The longest period (the LSI at its slowest), µs.
+    pub const fn longest_us(self) -> u64 {
+        self.period_us(LSI_HZ[0])
+    }
+    /// Within the registers' ranges.
+    pub const fn valid(self) -> bool {
+        self.pr <= 6 && self.rlr <= 0x0FFF
+    }
+}
+
+/// From the top of `init` to its end: /64, reload 4095 (8.2 s at the
+/// typical LSI; 5.6-15.4 s): longer than the worst boot, two journal
+/// erases at the datasheet's worst ([`crate::record::ERASE_WORST_US`]
+/// each) with the clock tree's bounded start, so a boot that erases is
+/// never reset half-way, and a boot that hangs (a stack overflow that
+/// locks the core) is reset.
+pub const BOOT: Iwdg = Iwdg { pr: 4, rlr: 4095 };
+
+/// Once the tasks run: /32, reload 99 (100 ms at the typical LSI; 68-188
+/// ms): longer than the IMU's silence the link task reports first
+/// (`tasks::IMU_TIMEOUT_US` and one link period).
+pub const RUN: Iwdg = Iwdg { pr: 3, rlr: 99 };
 
 /// Each task's progress counter.
 #[derive(Debug, Default)]
@@ -52,6 +102,26 @@ impl Feeder {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_periods_cover_the_boot_and_the_link_over_the_lsis_range() {
+        assert!(BOOT.valid() && RUN.valid());
+        // RM0090 table 107's corners at 32 kHz: /4 reload 0 is 0.125 ms,
+        // /256 reload 4095 is 32.768 s.
+        assert_eq!(Iwdg { pr: 0, rlr: 0 }.period_us(32_000), 125);
+        assert_eq!(Iwdg { pr: 6, rlr: 4095 }.period_us(32_000), 32_768_000);
+        assert_eq!(RUN.period_us(32_000), 100_000);
+        assert_eq!((RUN.shortest_us(), RUN.longest_us()), (68_085, 188_235));
+        // Two worst erases and the clock tree's two bounded waits (each at
+        // least 100 ms, at most 400,000 polls of a few cycles at 16 MHz:
+        // 0.2 s together, taken as 1 s) inside the boot's shortest period.
+        let boot_us = 2 * u64::from(crate::record::ERASE_WORST_US) + 1_000_000;
+        assert!(BOOT.shortest_us() > boot_us, "{}", BOOT.shortest_us());
+        // The IMU's silence is told (one link run after the timeout) before
+        // the run period's shortest reset.
+        let told_us = u64::from(crate::tasks::IMU_TIMEOUT_US) + 10_000;
+        assert!(RUN.shortest_us() > 2 * told_us);
+    }
 
     #[test]
     fn a_stalled_task_starves_the_watchdog() {

@@ -101,6 +101,10 @@ messages! {
             rx_bytes: u32,
             /// Bytes lost on receive.
             rx_lost: u32,
+            /// The USART's line errors (RM0090 30.6.1): overruns, noise,
+            /// framing errors; at least these many (a burst within one
+            /// link period counts once).
+            rx_line_errors: [u32; 3],
             /// The stack's peak during `init`, bytes (0: not measured).
             init_stack_bytes: u32,
             /// The tasks' stack peak at the last scan (once a minute),

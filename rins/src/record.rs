@@ -70,6 +70,8 @@ pub struct Health {
     pub samples: (u32, u32),
     /// Bytes received by the board and lost.
     pub rx: (u32, u32),
+    /// The board's USART line errors: overruns, noise, framing (at least).
+    pub rx_line_errors: [u32; 3],
     /// The stack's peak during init and the tasks' at the last scan,
     /// bytes (0: not measured).
     pub stack: (u32, u32),
@@ -171,6 +173,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 samples_duplicated,
                 rx_bytes,
                 rx_lost,
+                rx_line_errors,
                 init_stack_bytes,
                 stack_bytes,
             } => r.health.push(Health {
@@ -180,6 +183,7 @@ pub fn decode(bytes: impl IntoIterator<Item = u8>, meta: Meta) -> Decoded {
                 nav: (nav_worst, nav_overruns),
                 samples: (samples_dropped, samples_duplicated),
                 rx: (rx_bytes, rx_lost),
+                rx_line_errors,
                 stack: (init_stack_bytes, stack_bytes),
             }),
             c @ Telemetry::Config { .. } => r.configs.push(c),
@@ -214,6 +218,7 @@ pub fn link_json(d: &Decoded) -> serde_json::Value {
             "reset": format!("{:?}", h.reset), "tick_worst_cycles": h.tick.0, "tick_overruns": h.tick.1,
             "nav_worst_cycles": h.nav.0, "nav_overruns": h.nav.1, "samples_dropped": h.samples.0,
             "samples_duplicated": h.samples.1, "rx_bytes": h.rx.0, "rx_lost": h.rx.1,
+            "rx_line_errors": h.rx_line_errors,
             "init_stack_bytes": (h.stack.0 > 0).then_some(h.stack.0),
             "stack_bytes": (h.stack.1 > 0).then_some(h.stack.1)})),
         "boots": d.boots.iter().map(|b| serde_json::json!({
@@ -304,6 +309,12 @@ pub fn link_report(d: &Decoded) -> String {
             h.tick.0,
             h.nav.0
         ));
+        let [o, n, f] = h.rx_line_errors;
+        if o + n + f > 0 {
+            out.push_str(&format!(
+                "\nthe board's USART saw {o} overruns, {n} noise and {f} framing errors: check the line's wiring, ground and baud rate"
+            ));
+        }
     }
     out
 }

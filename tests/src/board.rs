@@ -21,6 +21,11 @@ pub struct NorFlash {
     pub cut_after: Option<usize>,
     /// Operations done.
     pub ops: usize,
+    /// How long an erase takes, µs: the board's sector at the datasheet's
+    /// worst ([`firmware::record::ERASE_WORST_US`]) unless a test says.
+    pub erase_us: u64,
+    /// The time the flash has kept the CPU waiting, µs (its erases).
+    pub busy_us: u64,
 }
 
 impl NorFlash {
@@ -30,6 +35,8 @@ impl NorFlash {
             mem: vec![0xFF; len],
             cut_after: None,
             ops: 0,
+            erase_us: u64::from(firmware::record::ERASE_WORST_US),
+            busy_us: 0,
         }
     }
 
@@ -80,6 +87,7 @@ impl Flash for NorFlash {
     }
     fn erase(&mut self, s: Sector) -> Result<(), FlashError> {
         let p = self.power();
+        self.busy_us += self.erase_us;
         let a = s.base as usize;
         let d = self
             .mem
@@ -137,6 +145,11 @@ pub struct HostBoard {
     /// is over).
     pub healthy: bool,
     seq: u16,
+    /// When `init` started (the watchdog with it), µs.
+    booted_us: u64,
+    first_feed_us: Option<u64>,
+    last_feed_us: Option<u64>,
+    longest_unfed_us: u64,
 }
 
 impl HostBoard {
@@ -178,8 +191,15 @@ impl HostBoard {
     ) -> Self {
         let queues: &'static mut Queues = Box::leak(Box::new(Queues::new()));
         let stats: &'static Stats = Box::leak(Box::default());
+        // As `init` runs on the board: the link task's timer starts before
+        // the journal opens (so its first run is due when `init` ends,
+        // before any data-ready edge), and the clock is read after the
+        // erases, which take the flash's time.
+        let timer_from = now_us;
+        let busy = flash.busy_us;
         let journal =
             Journal::open(&mut flash, JOURNAL).unwrap_or_else(|_| Journal::blank(JOURNAL));
+        let now_us = now_us + (flash.busy_us - busy);
         let slot = Box::leak(Box::new(core::mem::MaybeUninit::uninit()));
         let program = Program::new(
             slot,
@@ -195,7 +215,7 @@ impl HostBoard {
             },
         )
         .expect("the tuning's scheme is within the limits");
-        Self {
+        let mut b = Self {
             program,
             stats,
             rx: Box::leak(Box::default()),
@@ -207,7 +227,25 @@ impl HostBoard {
             motor_off: false,
             healthy: false,
             seq: 0,
-        }
+            booted_us: timer_from,
+            first_feed_us: None,
+            last_feed_us: None,
+            longest_unfed_us: 0,
+        };
+        // The link task's update, pending since before the erases, runs
+        // first when `init` returns (once: its timer's flag is one bit).
+        b.link_due();
+        b
+    }
+
+    /// The longest the watchdog went unfed after the tasks started, µs
+    /// (the run period's to beat), and how long after the watchdog's start
+    /// at the top of `init` its first feed came (the boot period's).
+    pub fn unfed_us(&self) -> (u64, Option<u64>) {
+        (
+            self.longest_unfed_us,
+            self.first_feed_us.map(|t| t - self.booted_us),
+        )
     }
 
     /// Bytes arriving at the board's UART.
@@ -247,6 +285,7 @@ impl HostBoard {
     pub fn link_due(&mut self) {
         while self.mcu_us >= self.next_link_us {
             self.next_link_us += 10_000;
+            let feeds = self.wdg.feeds;
             let out = self.program.link.run(
                 self.mcu_us,
                 self.rx,
@@ -256,9 +295,21 @@ impl HostBoard {
             );
             self.motor_off = out.motor_off;
             self.healthy |= out.healthy;
+            self.watch_feeds(feeds);
             while let Some(b) = self.program.uart.next_tx() {
                 self.sent.push(b);
             }
+        }
+    }
+
+    fn watch_feeds(&mut self, before: u32) {
+        let (now, last) = (self.mcu_us, self.last_feed_us);
+        if let Some(l) = last {
+            self.longest_unfed_us = self.longest_unfed_us.max(now - l);
+        }
+        if self.wdg.feeds != before {
+            self.first_feed_us.get_or_insert(now);
+            self.last_feed_us = Some(now);
         }
     }
 

@@ -4,5 +4,6 @@
 
 pub mod board;
 pub mod data;
+pub mod hardware;
 pub mod runs;
 pub mod twin;

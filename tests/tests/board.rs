@@ -550,3 +550,23 @@ fn corrupt_frames_and_refused_commands_are_told_as_bad_commands_with_their_count
         .collect();
     assert_eq!(bad.last(), Some(&3), "{bad:?}");
 }
+
+#[test]
+fn the_usarts_line_errors_reach_the_health_frame() {
+    use std::sync::atomic::Ordering::Relaxed;
+    let mut b = unpowered();
+    // What the USART's error interrupt counted (`uart_rx::count_line_errors`):
+    // two overruns, a framing error. Before, the health frame had no place
+    // for them: they showed only as corrupt frames (BadCommand).
+    b.stats.rx_line[0].fetch_add(2, Relaxed);
+    b.stats.rx_line[2].fetch_add(1, Relaxed);
+    b.idle(1_100_000);
+    let last = telemetry_sent(&b.sent)
+        .into_iter()
+        .filter_map(|t| match t {
+            protocol::Telemetry::Health { rx_line_errors, .. } => Some(rx_line_errors),
+            _ => None,
+        })
+        .next_back();
+    assert_eq!(last, Some([2, 0, 1]));
+}

@@ -116,6 +116,11 @@ impl Board {
         imu.init(Config::default(), &mut SimDelay(bench.clone()))
             .expect("IMU init");
         let t_us = bench.borrow().now_ns / 1000;
+        // `init` takes its time (the journal's erases): the sensors run on
+        // meanwhile, powered from reset, and the edges come from its end.
+        let b = HostBoard::new(t, flash, t_us, Ok(()));
+        let t_us = b.mcu_us;
+        bench.borrow_mut().advance_to(t_us * 1000);
         Self {
             pins: Pins {
                 pwm: SimPwm(bench.clone()),
@@ -124,7 +129,7 @@ impl Board {
             enc: Counter(SimEncoder(bench.clone())),
             bench,
             imu,
-            b: HostBoard::new(t, flash, t_us, Ok(())),
+            b,
             t_us,
             rates: vec![],
             consumed: vec![],
@@ -283,6 +288,64 @@ fn ten_minutes_from_power_up_calibrate_then_navigate() {
         b.b.stats.dropped.load(std::sync::atomic::Ordering::Relaxed),
         0
     );
+}
+
+/// A board whose journal's active sector holds only a cut slot: the boot
+/// moves the journal, erasing both sectors (`Journal::open`).
+fn flash_that_erases_at_boot() -> NorFlash {
+    let mut f = NorFlash::new(4096);
+    f.mem[..4].fill(0);
+    f
+}
+
+#[test]
+fn a_boot_that_erases_two_sectors_calibrates_and_navigates_without_a_timeout() {
+    // Both erases at the datasheet's worst (2 s each: the host's flash
+    // keeps the CPU waiting that long, as the board's does), the sensors
+    // on from reset, the link task first when `init` ends. Before the
+    // silence window started at the link's first run, the boot's clock
+    // reading (before the erases) made that run an `ImuTimeout` and a
+    // halted table.
+    let mut b = Board::new(
+        ImuSpec::icm42688(),
+        tuning(60.0, 60.0),
+        flash_that_erases_at_boot(),
+        21,
+    );
+    assert_eq!(b.b.program.link.journal.erases, 2);
+    assert_eq!(b.b.flash.busy_us, 4_000_000);
+    b.run(180.0);
+    let timeouts = b
+        .telemetry()
+        .into_iter()
+        .filter(|t| {
+            matches!(
+                t,
+                Telemetry::Fault {
+                    fault: Fault::ImuTimeout,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(timeouts, 0);
+    assert_eq!(b.fault_count(Fault::ImuTimeout), 0);
+    assert_eq!(
+        b.mode(),
+        Mode::Navigating,
+        "{:?}",
+        b.b.program.nav.nav.faults
+    );
+    // The watchdog: its first feed within the boot period's shortest
+    // (from the top of `init`, erases included), then never unfed for
+    // longer than the run period's shortest.
+    let (unfed, first) = b.b.unfed_us();
+    let first = first.expect("fed");
+    assert!(
+        first >= 4_000_000 && first < firmware::watchdog::BOOT.shortest_us(),
+        "{first}"
+    );
+    assert!(unfed < firmware::watchdog::RUN.shortest_us(), "{unfed}");
 }
 
 #[test]

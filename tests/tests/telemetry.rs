@@ -80,6 +80,7 @@ fn samples() -> Vec<Telemetry> {
             samples_duplicated: 3,
             rx_bytes: 12_248,
             rx_lost: 0,
+            rx_line_errors: [1, 0, 2],
             init_stack_bytes: 13_652,
             stack_bytes: 10_452,
         },

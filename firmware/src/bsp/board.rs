@@ -3,18 +3,19 @@
 //!
 //! | signal | pin (Feather label) | peripheral |
 //! | --- | --- | --- |
-//! | IMU SCK / MISO / MOSI | PA5 / PA6 / PA7 (A1 / A2 / A3) | SPI1, mode 0, 8 MHz |
+//! | IMU SCK / MISO / MOSI | PA5 / PA6 / PA7 (A1 / A2 / A3) | SPI1 (AF5), mode 0, the rig's clock (5.25 MHz), medium speed |
 //! | IMU chip select | PA4 (A0) | GPIO, active low |
 //! | IMU INT1 (data-ready) | PC4 (A4) | EXTI4, rising edge |
-//! | encoder A / B | PB6 / PB7 (SCL / SDA) | TIM4 quadrature (16-bit counter) |
-//! | motor PWM | PA8 | TIM1 CH1, 20 kHz |
+//! | encoder A / B | PB6 / PB7 (SCL / SDA) | TIM4 quadrature (AF2, 16-bit counter) |
+//! | motor PWM | PB8 (D9) | TIM10 CH1 (AF3), the rig's frequency (20 kHz) |
 //! | motor direction | PC6 (D6) | GPIO (high = positive rotation) |
-//! | telemetry TX / RX | PB10 / PB11 (TX / RX) | USART3, 921,600 baud |
+//! | telemetry TX / RX | PB10 / PB11 (TX / RX) | USART3 (AF7), 921,600 baud |
 //!
-//! The Feather's pins labelled TX and RX are USART3's (PB10 / PB11, AF7),
-//! by its pinout. PA8 is not on the Feather's header: wire the motor
-//! driver's PWM to its pad, or move the PWM to TIM8 CH1 on PC6 (the
-//! book's Hardware chapter, `docs/src/hardware.md`).
+//! Checked against the Feather's own schematic (the header's nets) by
+//! `firmware::pins` and its test: every pin here is on the header, no
+//! two signals share a pin or a timer. (PA8, TIM1 CH1, is on no net of
+//! the Feather.) The rig's values come from `sensors/rig.toml`
+//! (`crate::rig`).
 
 pub use super::common::*;
 
@@ -25,17 +26,16 @@ use crate::tasks::{Encoder, Motor, Tuning, Watchdog};
 use embedded_hal::delay::DelayNs;
 use embedded_hal_02::Qei as _;
 use embedded_hal_bus::spi::ExclusiveDevice;
-use stm32f4xx_hal::gpio::{Output, PushPull, PA4, PC6};
-use stm32f4xx_hal::pac::{self, FLASH, SPI1, TIM1, TIM4};
+use stm32f4xx_hal::gpio::{Output, PushPull, Speed, PA4, PC6};
+use stm32f4xx_hal::pac::{self, FLASH, SPI1, TIM10, TIM4};
 use stm32f4xx_hal::prelude::*;
 use stm32f4xx_hal::qei::Qei;
 use stm32f4xx_hal::rcc::{Config as RccConfig, Enable};
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
 use stm32f4xx_hal::timer::PwmChannel;
-use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 /// Crystal, Hz.
-pub const HSE_HZ: u32 = 12_000_000;
+pub const HSE_HZ: u32 = crate::clocks::HSE_HZ;
 /// System clock, Hz (through the PLL from HSE, or HSI as a fallback).
 pub const SYSCLK_HZ: u32 = 168_000_000;
 /// APB1 (USART3), Hz: SYSCLK / 4 (APB1's timers, TIM2-5, at twice it).
@@ -68,16 +68,11 @@ impl crate::ports::ClockControl for Rcc<'_> {
         self.0.cr().read().hserdy().bit_is_set()
     }
     fn pll_configure(&mut self, src: crate::ports::ClockSource) {
-        // 2 MHz into the VCO (M), 336 MHz out of it (N = 168), 168 MHz
-        // system (P = 2), 48 MHz for USB (Q = 7); PLLSRC bit 22.
-        let (m, hse) = match src {
-            crate::ports::ClockSource::Hse => (HSE_HZ / 2_000_000, 1),
-            crate::ports::ClockSource::Hsi => (16_000_000 / 2_000_000, 0),
-        };
-        // SAFETY: the PLL is off (PLLCFGR is written only then).
+        // SAFETY: the PLL is off (PLLCFGR is written only then); its
+        // reserved bits kept (`crate::clocks::pllcfgr`).
         self.0
             .pllcfgr()
-            .write(|w| unsafe { w.bits(m | (168 << 6) | (hse << 22) | (7 << 24)) });
+            .modify(|r, w| unsafe { w.bits(crate::clocks::pllcfgr(r.bits(), src)) });
     }
     fn pll_on(&mut self, on: bool) {
         self.0.cr().modify(|_, w| w.pllon().bit(on));
@@ -89,19 +84,61 @@ impl crate::ports::ClockControl for Rcc<'_> {
 
 /// The clock tree started with every wait bounded (`crate::clocks`),
 /// then set by the HAL for the crystal (its own waits then return at once:
-/// the same parts just started), or left at HSI's 16 MHz (the reset
-/// state) when a part did not start.
-fn start_clocks(rcc: pac::RCC) -> (stm32f4xx_hal::rcc::Rcc, Result<(), Fault>) {
-    let plan = crate::clocks::plan(&mut Rcc(&rcc), crate::clocks::START_POLLS);
+/// the same parts just started); without the crystal, the PLL from HSI
+/// by its registers (the HAL's HSI set-up links panic paths), or HSI's 16
+/// MHz alone (the reset state). Returns the HAL's clocks, the plan that
+/// ran, and its status.
+fn start_clocks(
+    rcc: pac::RCC,
+) -> (
+    stm32f4xx_hal::rcc::Rcc,
+    crate::clocks::Plan,
+    Result<(), Fault>,
+) {
+    use crate::clocks::Plan;
+    let mut plan = crate::clocks::plan(&mut Rcc(&rcc), crate::clocks::START_POLLS);
+    if let Plan::Hsi168(f) = plan {
+        if !hsi_pll(&rcc) {
+            plan = Plan::Hsi16(f);
+        }
+    }
     let rcc = match plan {
-        crate::clocks::Plan::Hse168 => rcc.freeze(
+        Plan::Hse168 => rcc.freeze(
             RccConfig::hse(HSE_HZ.Hz())
                 .sysclk(SYSCLK_HZ.Hz())
                 .pclk1(APB1_HZ.Hz()),
         ),
-        crate::clocks::Plan::Hsi16(_) => rcc.constrain(),
+        // (The HAL's record then says 16 MHz: the SPI and the PWM it sets
+        // up run 10.5 times faster than asked. The board is stopped, so
+        // neither is used: the motor's duty stays 0.)
+        Plan::Hsi168(_) | Plan::Hsi16(_) => rcc.constrain(),
     };
-    (rcc, plan.status())
+    (rcc, plan, plan.status())
+}
+
+/// The system from the PLL (configured from HSI by `crate::clocks::plan`,
+/// left off): on, locked, flash at 5 wait states (RM0090 table 10, 168 MHz
+/// at 2.7-3.6 V), AHB /1, APB1 /4, APB2 /2, then switched to it; every
+/// wait bounded. `false`: it did not take (the system stays on HSI).
+fn hsi_pll(rcc: &pac::RCC) -> bool {
+    let polls = crate::clocks::START_POLLS;
+    rcc.cr().modify(|_, w| w.pllon().set_bit());
+    if !(0..polls).any(|_| rcc.cr().read().pllrdy().bit_is_set()) {
+        rcc.cr().modify(|_, w| w.pllon().clear_bit());
+        return false;
+    }
+    // SAFETY: ACR's LATENCY (2:0) 5 with the prefetch (8) and both caches
+    // (9, 10) on; CFGR's HPRE (7:4) 0, PPRE1 (12:10) 0b101, PPRE2 (15:13)
+    // 0b100, then SW (1:0) 0b10: documented values.
+    unsafe {
+        (*pac::FLASH::ptr())
+            .acr()
+            .modify(|r, w| w.bits((r.bits() & !0b111) | 5 | (1 << 8) | (1 << 9) | (1 << 10)));
+        rcc.cfgr()
+            .modify(|r, w| w.bits((r.bits() & !0xFCF0) | (0b101 << 10) | (0b100 << 13)));
+        rcc.cfgr().modify(|r, w| w.bits((r.bits() & !0b11) | 0b10));
+    }
+    (0..polls).any(|_| (rcc.cfgr().read().bits() >> 2) & 0b11 == 0b10)
 }
 
 /// The IMU (absent when it did not come up: the tick never runs).
@@ -122,7 +159,7 @@ impl Encoder for BoardEncoder {
 
 /// The motor: PWM duty and direction.
 pub struct BoardMotor {
-    pwm: PwmChannel<TIM1, 0>,
+    pwm: PwmChannel<TIM10, 0>,
     dir: PC6<Output<PushPull>>,
 }
 impl Motor for BoardMotor {
@@ -138,17 +175,52 @@ impl Motor for BoardMotor {
     }
 }
 
-/// The independent watchdog (100 ms), started at the end of `init`.
-pub struct BoardWatchdog(IndependentWatchdog);
+/// The independent watchdog (RM0090 21), by its registers: started at the
+/// top of `init` at [`crate::watchdog::BOOT`]'s period (the boot's
+/// erases), set to [`crate::watchdog::RUN`]'s when the tasks start. (The
+/// HAL's driver picks its own prescaler and reload for a period asked at
+/// the typical LSI: /256 and 12, 65-196 ms over the LSI's range.)
+pub struct BoardWatchdog(pac::IWDG);
+
+/// IWDG_KR's keys: reload, register access, start (RM0090 21.4.1).
+const IWDG_RELOAD: u16 = 0xAAAA;
+const IWDG_ACCESS: u16 = 0x5555;
+const IWDG_START: u16 = 0xCCCC;
+
 impl BoardWatchdog {
-    /// Starts it (after the journal's boot erase).
-    pub fn start(&mut self) {
-        self.0.start(100u32.millis());
+    /// Started with the boot's period (the LSI starts with it).
+    fn start(iwdg: pac::IWDG) -> Self {
+        // SAFETY: the documented key.
+        iwdg.kr().write(|w| unsafe { w.bits(IWDG_START) });
+        let mut w = Self(iwdg);
+        w.set(crate::watchdog::BOOT);
+        w
+    }
+    /// A new period: PR and RLR written once the last update is through
+    /// (SR's PVU and RVU, a few LSI periods; bounded: a write that cannot
+    /// go through keeps the period that is running), then a feed.
+    fn set(&mut self, s: crate::watchdog::Iwdg) {
+        let idle = |w: &Self| w.0.sr().read().bits() & 0b11 == 0;
+        let _ = (0..crate::clocks::START_POLLS).any(|_| idle(self));
+        // SAFETY: the access key, then PR (0-6) and RLR (12 bits), in range
+        // by `Iwdg::valid` (a host test).
+        unsafe {
+            self.0.kr().write(|w| w.bits(IWDG_ACCESS));
+            self.0.pr().write(|w| w.bits(u16::from(s.pr) & 0b111));
+            self.0.rlr().write(|w| w.bits(s.rlr & 0x0FFF));
+        }
+        let _ = (0..crate::clocks::START_POLLS).any(|_| idle(self));
+        self.feed();
+    }
+    /// The tasks start: the run period.
+    pub fn run_period(&mut self) {
+        self.set(crate::watchdog::RUN);
     }
 }
 impl Watchdog for BoardWatchdog {
     fn feed(&mut self) {
-        self.0.feed();
+        // SAFETY: the documented key.
+        self.0.kr().write(|w| unsafe { w.bits(IWDG_RELOAD) });
     }
 }
 
@@ -260,13 +332,16 @@ pub type Board = Parts<BoardImu, BoardEncoder, BoardMotor, BoardFlash, BoardWatc
 impl Board {
     /// Clocks, pins and peripherals; the IMU initialised.
     pub fn new(dp: pac::Peripherals) -> Self {
-        let (mut rcc, clock_status) = start_clocks(dp.RCC);
-        let clocks = rcc.clocks;
-        let (sysclk, apb1, timer) = (
-            clocks.sysclk().raw(),
-            clocks.pclk1().raw(),
-            clocks.timclk1().raw(),
-        );
+        // First: a boot that hangs anywhere after this is reset.
+        let wdg = BoardWatchdog::start(dp.IWDG);
+        let (mut rcc, plan, clock_status) = start_clocks(dp.RCC);
+        // The clocks the plan runs (APB1's timers at twice APB1 when it is
+        // divided), not the HAL's record.
+        let (sysclk, apb1) = match plan {
+            crate::clocks::Plan::Hsi16(_) => (16_000_000, 16_000_000),
+            _ => (SYSCLK_HZ, plan.apb1_hz()),
+        };
+        let timer = if apb1 < sysclk { 2 * apb1 } else { apb1 };
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpioc = dp.GPIOC.split(&mut rcc);
@@ -296,10 +371,15 @@ impl Board {
             polarity: Polarity::IdleLow,
             phase: Phase::CaptureOnFirstTransition,
         };
+        // Asked exactly a divided clock, the HAL takes that divisor
+        // (`crate::rig::spi_clock`); SCK and MOSI at medium speed (25 MHz
+        // at 50 pF by the datasheet; the reset's low speed is rated 2 MHz).
+        let sck = gpioa.pa5.into_alternate::<5>().speed(Speed::Medium);
+        let mosi = gpioa.pa7.into_alternate::<5>().speed(Speed::Medium);
         let spi = dp.SPI1.spi(
-            (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
+            (Some(sck), Some(gpioa.pa6), Some(mosi)),
             mode,
-            8.MHz(),
+            crate::rig::IMU_SPI_HZ.Hz(),
             &mut rcc,
         );
         let cs = gpioa
@@ -318,8 +398,8 @@ impl Board {
             Err(_) => (None, Err(Fault::ImuInitFailed)),
         };
         let qei = Qei::new(dp.TIM4, (gpiob.pb6, gpiob.pb7), &mut rcc);
-        let (_, (ch1, ..)) = dp.TIM1.pwm_hz(20.kHz(), &mut rcc);
-        let mut pwm = ch1.with(gpioa.pa8);
+        let (_, (ch1, ..)) = dp.TIM10.pwm_hz(crate::rig::RIG.pwm_hz.Hz(), &mut rcc);
+        let mut pwm = ch1.with(gpiob.pb8);
         pwm.set_duty(0);
         pwm.enable();
         let dir = gpioc.pc6.into_push_pull_output();
@@ -331,7 +411,7 @@ impl Board {
             imu: BoardImu(imu),
             encoder: BoardEncoder(qei),
             flash: BoardFlash(dp.FLASH),
-            wdg: BoardWatchdog(IndependentWatchdog::new(dp.IWDG)),
+            wdg,
             imu_status,
             clock_status,
         }
@@ -414,20 +494,37 @@ const S1_FLAGS: u32 = 0b1111_0100_0000;
 /// source.
 const USART3_DR: u32 = 0x4000_4804;
 
+/// The stream's last restart after a transfer error: the count, where the
+/// writer stopped, where it went on from (`crate::ports::Restart`).
+static RX_RESTARTS: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+static RX_STOPPED_AT: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+static RX_FROM: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
 /// Starts USART3's receive DMA: DMA1 stream 1, channel 4 (RM0090 table
 /// 42), peripheral to memory, bytes, circular over [`RX_RING`], the
 /// half-transfer and transfer-complete interrupts counting its halves, a
 /// transfer error's too (the stream is started again).
 fn start_rx_dma(dma: &pac::DMA1) {
     let s = dma.st(1);
-    let ring = core::ptr::addr_of_mut!(RX_RING) as u32;
-    // SAFETY: the stream is off while it is set up; addresses of
-    // USART3's DR and of a static the stream alone writes.
+    // SAFETY: the stream is off while it is set up; USART3's DR.
     unsafe {
         s.cr().write(|w| w.bits(0));
         while s.cr().read().bits() & 1 != 0 {}
-        dma.lifcr().write(|w| w.bits(S1_FLAGS));
         s.par().write(|w| w.bits(USART3_DR));
+    }
+    restart_rx_dma(dma);
+}
+
+/// The stream (off) set up from the ring's start and enabled: M0AR and
+/// NDTR written anew (a transfer error leaves them where it stopped).
+fn restart_rx_dma(dma: &pac::dma2::RegisterBlock) {
+    let s = dma.st(1);
+    let ring = core::ptr::addr_of_mut!(RX_RING) as u32;
+    // SAFETY: the stream is off (EN reads 0: a transfer error clears it,
+    // `start_rx_dma` waits for it); the address of a static the stream
+    // alone writes, its length.
+    unsafe {
+        dma.lifcr().write(|w| w.bits(S1_FLAGS));
         s.m0ar().write(|w| w.bits(ring));
         s.ndtr().write(|w| w.bits(RX_LEN));
         // CHSEL 4 (27:25), PL high (17:16 = 2), MINC (10), CIRC (8),
@@ -442,9 +539,12 @@ fn start_rx_dma(dma: &pac::DMA1) {
 }
 
 /// DMA1 stream 1's interrupt: half rings counted; after a transfer error
-/// (which turns the stream off) the bytes since are lost, counted, and
-/// the stream started again.
+/// (which turns the stream off) the stream starts again from the ring's
+/// start, the half rings counted to the next whole ring, and the restart
+/// told to the reader (`crate::uart_rx::RxRing::sync` counts the bytes it
+/// had not read as lost).
 pub fn rx_dma_event() {
+    use core::sync::atomic::Ordering::{Relaxed, Release};
     // SAFETY: DMA1's flags; the stream's registers only this interrupt
     // and `start_rx_dma` (before it is unmasked) write.
     let dma = unsafe { &*pac::DMA1::ptr() };
@@ -452,15 +552,17 @@ pub fn rx_dma_event() {
     // SAFETY: writing ones clears stream 1's flags only.
     dma.lifcr().write(|w| unsafe { w.bits(lisr & S1_FLAGS) });
     let halves = ((lisr >> 10) & 1) + ((lisr >> 11) & 1);
-    RX_HALVES.fetch_add(halves, core::sync::atomic::Ordering::Release);
+    RX_HALVES.fetch_add(halves, Release);
     if lisr & (1 << 9) != 0 {
-        STATS
-            .rx_lost
-            .fetch_add(1, core::sync::atomic::Ordering::Relaxed);
-        // SAFETY: EN on again, the set-up kept.
-        dma.st(1)
-            .cr()
-            .modify(|r, w| unsafe { w.bits(r.bits() | 1) });
+        // Wait for EN to read 0 (RM0090 10.3.17), bounded.
+        let _ = (0..crate::clocks::START_POLLS).any(|_| dma.st(1).cr().read().bits() & 1 == 0);
+        let stopped = crate::uart_rx::RxRing::written(&BoardRx);
+        let r = crate::uart_rx::restart_from(stopped, RX_LEN);
+        RX_STOPPED_AT.store(r.stopped_at, Relaxed);
+        RX_FROM.store(r.from, Relaxed);
+        RX_HALVES.store(r.from / (RX_LEN / 2), Relaxed);
+        RX_RESTARTS.fetch_add(1, Release);
+        restart_rx_dma(dma);
     }
 }
 
@@ -475,6 +577,15 @@ impl crate::ports::RxDma for BoardRx {
     fn remaining(&self) -> u32 {
         // SAFETY: a read of the stream's counter.
         unsafe { (*pac::DMA1::ptr()).st(1).ndtr().read().bits() & 0xFFFF }
+    }
+    fn restarted(&self) -> crate::ports::Restart {
+        use core::sync::atomic::Ordering::{Acquire, Relaxed};
+        let count = RX_RESTARTS.load(Acquire);
+        crate::ports::Restart {
+            count,
+            stopped_at: RX_STOPPED_AT.load(Relaxed),
+            from: RX_FROM.load(Relaxed),
+        }
     }
     fn byte(&self, i: u32) -> u8 {
         if i >= RX_LEN {

@@ -24,6 +24,7 @@ pub static STATS: Stats = Stats {
     duplicated: core::sync::atomic::AtomicU32::new(0),
     rx_bytes: core::sync::atomic::AtomicU32::new(0),
     rx_lost: core::sync::atomic::AtomicU32::new(0),
+    rx_line: [const { core::sync::atomic::AtomicU32::new(0) }; 3],
     out_lost: core::sync::atomic::AtomicU32::new(0),
     last_sample_us: core::sync::atomic::AtomicU32::new(0),
     samples: core::sync::atomic::AtomicU32::new(0),
@@ -66,13 +67,9 @@ pub struct Parts<Imu, Enc, Mot, Fl, Wdg> {
 pub const BAUD: u32 = 921_600;
 /// The word the stack is painted with.
 const PAINT: u32 = 0x5AC4_5AC4;
-/// The bottom of the stack: flip-link puts the stack at the start of RAM
-/// (below `.data` and `.bss`), so an overflow faults instead of
-/// overwriting statics.
-const STACK_BOTTOM: u32 = 0x2000_0000;
-
 extern "C" {
     static _stack_start: u32;
+    static _stack_end: u32;
 }
 
 fn stack_top() -> u32 {
@@ -80,11 +77,19 @@ fn stack_top() -> u32 {
     core::ptr::addr_of!(_stack_start) as u32
 }
 
+/// The bottom of the stack: flip-link puts the stack at the start of RAM
+/// (below `.data` and `.bss`), so an overflow faults instead of
+/// overwriting statics; it defines `_stack_end` there.
+fn stack_bottom() -> u32 {
+    // Only the linker script's symbol's address is taken.
+    core::ptr::addr_of!(_stack_end) as u32
+}
+
 /// Paints the unused stack (from its bottom to 256 bytes below where
 /// `init` is) so that [`stack_peak`] can read back how deep it ever went.
 pub fn paint_stack() {
     let sp = cortex_m::register::msp::read();
-    let mut a = STACK_BOTTOM;
+    let mut a = stack_bottom();
     while a + 256 < sp {
         // SAFETY: between the bottom of RAM and the live stack: unused.
         unsafe { core::ptr::write_volatile(a as *mut u32, PAINT) };
@@ -106,7 +111,7 @@ pub fn repaint_after_init() {
 
 /// The deepest the stack has been since [`paint_stack`], bytes.
 pub fn stack_peak() -> u32 {
-    let mut a = STACK_BOTTOM;
+    let mut a = stack_bottom();
     // SAFETY: reads within the stack's region.
     while a < stack_top() && unsafe { core::ptr::read_volatile(a as *const u32) } == PAINT {
         a += 4;
@@ -175,7 +180,7 @@ pub fn clear_tim2(t: &pac::TIM2) {
 /// turned on when bytes are queued.
 pub fn start_usart(u: &pac::USART3, apb1_hz: u32, rx_irq: bool) {
     // BRR = f / baud in 1/16ths (oversampling by 16): 42 MHz gives 45.57,
-    // written 46 (913,043 baud: 0.9 % off, within the 2 % a UART takes).
+    // written 46 (913,043 baud: 0.9 % slow, `crate::clocks::baud`).
     let brr = ((apb1_hz + BAUD / 2) / BAUD) as u16;
     let rxneie = if rx_irq { 1 << 5 } else { 0 };
     // SAFETY: plain register writes (BRR; CR1: UE, RXNEIE, TE, RE; CR3:
@@ -183,7 +188,9 @@ pub fn start_usart(u: &pac::USART3, apb1_hz: u32, rx_irq: bool) {
     // the bytes).
     unsafe {
         u.brr().write(|w| w.bits(brr));
-        u.cr3().write(|w| w.bits(if rx_irq { 0 } else { 1 << 6 }));
+        // (DMAR with EIE: the receive DMA's line errors interrupt.)
+        u.cr3()
+            .write(|w| w.bits(if rx_irq { 0 } else { (1 << 6) | 1 }));
         u.cr1()
             .write(|w| w.bits((1 << 13) | rxneie | (1 << 3) | (1 << 2)));
     }
@@ -204,14 +211,24 @@ pub fn usart_service(
     let sr = u.sr().read().bits();
     let rx_irq = u.cr1().read().bits() & (1 << 5) != 0;
     if let Some(soft) = soft.filter(|_| rx_irq && sr & ((1 << 5) | (1 << 3)) != 0) {
-        // Reading SR then DR clears RXNE and ORE.
+        // Reading SR then DR clears RXNE and the error flags.
         let b = (u.dr().read().bits() & 0xFF) as u8;
         if sr & (1 << 3) != 0 {
             stats
                 .rx_lost
                 .fetch_add(1, core::sync::atomic::Ordering::Relaxed);
         }
+        crate::uart_rx::count_line_errors(u32::from(sr), &stats.rx_line);
         soft.write(b);
+    }
+    // The DMA receives: the error interrupt (EIE) counts and turns itself
+    // off until the link task sees SR clear (`rearm_line_errors`).
+    if soft.is_none()
+        && u.cr3().read().bits() & 1 != 0
+        && crate::uart_rx::count_line_errors(u32::from(sr), &stats.rx_line)
+    {
+        // SAFETY: EIE off, the rest of CR3 kept.
+        u.cr3().modify(|r, w| unsafe { w.bits(r.bits() & !1) });
     }
     if u.cr1().read().bits() & (1 << 7) == 0 {
         return 0;
@@ -236,6 +253,17 @@ pub fn usart_service(
         }
     }
     sent
+}
+
+/// The link task's run: the USART's error interrupt on again once SR
+/// shows no line error (`crate::uart_rx::count_line_errors`), where the
+/// DMA receives.
+pub fn rearm_line_errors(u: &mut pac::USART3) {
+    let dma = u.cr3().read().bits() & (1 << 6) != 0;
+    if dma && crate::uart_rx::line_clear(u32::from(u.sr().read().bits())) {
+        // SAFETY: EIE on, the rest of CR3 kept.
+        u.cr3().modify(|r, w| unsafe { w.bits(r.bits() | 1) });
+    }
 }
 
 /// Turns the USART's transmit interrupt on (bytes are queued) and pends
@@ -306,8 +334,8 @@ pub fn freeze_for_debugger(d: &pac::DBGMCU) {
         // APB1_FZ: TIM2 (0), TIM3 (1), TIM4 (2), TIM5 (3), IWDG (12).
         d.apb1_fz()
             .modify(|r, w| w.bits(r.bits() | 0b1111 | (1 << 12)));
-        // APB2_FZ: TIM1 (0): the motor's PWM.
-        d.apb2_fz().modify(|r, w| w.bits(r.bits() | 1));
+        // APB2_FZ: TIM10 (17): the motor's PWM.
+        d.apb2_fz().modify(|r, w| w.bits(r.bits() | (1 << 17)));
     }
 }
 
@@ -349,21 +377,71 @@ pub fn reset_healthy() {
     with_reset_log(crate::resets::ResetLog::healthy);
 }
 
+// The HardFault's entry, before any Rust code pushes a word: with
+// flip-link a stack overflow faults below RAM, where the exception's own
+// stacking already failed; the handler's first push would fault again at
+// priority -1 and lock the core up (the F4 does not reset on lock-up). So
+// when MSP is within `HARD_FAULT_ROOM` of the stack's bottom (flip-link's
+// `_stack_end`), MSP is set back to the stack's top first (what was there
+// is not needed: the handler resets the chip), and a frame below the
+// bottom is passed as none. Then `rins_hard_fault` with the frame (from
+// MSP or PSP, as EXC_RETURN says) in r0.
+core::arch::global_asm!(
+    ".section .HardFaultTrampoline, \"ax\"",
+    ".global HardFault",
+    ".type HardFault,%function",
+    ".thumb_func",
+    "HardFault:",
+    "mov r0, lr",
+    "movs r1, #4",
+    "tst r0, r1",
+    "bne 1f",
+    "mrs r0, MSP",
+    "b 2f",
+    "1:",
+    "mrs r0, PSP",
+    "2:",
+    "ldr r1, =_stack_end",
+    "ldr r3, ={room}",
+    "add r3, r1",
+    "mrs r2, MSP",
+    "cmp r2, r3",
+    "bhs 4f",
+    "ldr r2, =_stack_start",
+    "msr MSP, r2",
+    "cmp r0, r1",
+    "bhs 4f",
+    "movs r0, #0",
+    "4:",
+    "b rins_hard_fault",
+    ".ltorg",
+    ".size HardFault, . - HardFault",
+    room = const HARD_FAULT_ROOM,
+);
+
+/// The stack the HardFault handler needs, bytes (its frame and the reset
+/// log's read-modify-write, with room to spare): MSP closer than this to
+/// the stack's bottom is moved to its top before the handler runs.
+const HARD_FAULT_ROOM: u32 = 512;
+
 /// A HardFault: its registers kept for the next boot's report, then a
 /// reset (`SYSRESETREQ`: the next boot reads "software" and the log's
-/// fault).
-#[cortex_m_rt::exception]
-unsafe fn HardFault(ef: &cortex_m_rt::ExceptionFrame) -> ! {
+/// fault). `frame` is null after a stack overflow (the exception's
+/// stacking failed): PC and LR are then 0 and CFSR tells the stacking
+/// error (STKERR, bit 12).
+#[unsafe(no_mangle)]
+unsafe extern "C" fn rins_hard_fault(frame: *const cortex_m_rt::ExceptionFrame) -> ! {
     // SAFETY: SCB's fault status and address registers are read-only
-    // status here (ARMv7-M B3.2.15-B3.2.18).
-    let scb = unsafe { &*cortex_m::peripheral::SCB::PTR };
+    // status here (ARMv7-M B3.2.15-B3.2.18); `frame` is null or the
+    // exception's frame in the stack (the trampoline checked it).
+    let (scb, ef) = unsafe { (&*cortex_m::peripheral::SCB::PTR, frame.as_ref()) };
     let regs = crate::resets::FaultRegs {
         cfsr: scb.cfsr.read(),
         hfsr: scb.hfsr.read(),
         mmfar: scb.mmfar.read(),
         bfar: scb.bfar.read(),
-        pc: ef.pc(),
-        lr: ef.lr(),
+        pc: ef.map_or(0, |f| f.pc()),
+        lr: ef.map_or(0, |f| f.lr()),
     };
     with_reset_log(|l| l.hard_fault(regs));
     cortex_m::peripheral::SCB::sys_reset()

@@ -66,6 +66,7 @@ impl LinkTask<'_> {
             samples_duplicated: l(&stats.duplicated),
             rx_bytes: l(&stats.rx_bytes),
             rx_lost: l(&stats.rx_lost),
+            rx_line_errors: stats.rx_line.each_ref().map(l),
             init_stack_bytes: l(&stats.init_stack_bytes),
             stack_bytes: l(&stats.stack_bytes),
         }

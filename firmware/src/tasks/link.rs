@@ -31,9 +31,8 @@ pub struct LinkTask<'a> {
     pub(super) to_nav: Producer<'a, NavCmd, CMD_Q>,
     pub(super) feeder: Feeder,
     pub(super) sensors: bool,
-    /// Since when the IMU's data-ready edges are expected, µs (`None`
-    /// while the QEMU harness has not powered its sensors).
-    pub(super) sensors_from: Option<u64>,
+    /// Since when the IMU's data-ready edges are expected.
+    pub(super) window: Window,
     pub(super) last_run_us: u64,
     pub(super) healthy_told: bool,
     pub(super) clock_start: u64,
@@ -64,13 +63,13 @@ impl LinkTask<'_> {
     /// The IMU's edges are not expected yet (the QEMU harness powers its
     /// sensors when the host's configuration has come).
     pub fn sensors_later(&mut self) {
-        self.sensors_from = None;
+        self.window = Window::Later;
     }
 
     /// The IMU's edges are expected from now on.
     pub fn sensors_started(&mut self) {
-        if self.sensors && self.sensors_from.is_none() {
-            self.sensors_from = Some(self.last_run_us);
+        if self.window == Window::Later {
+            self.window = Window::From(self.last_run_us);
         }
     }
 
@@ -85,6 +84,9 @@ impl LinkTask<'_> {
     ) -> LinkOut {
         stats.progress.link.fetch_add(1, Ordering::Relaxed);
         self.last_run_us = mcu_us;
+        if self.window == Window::FirstRun {
+            self.window = Window::From(mcu_us);
+        }
         let mut o = LinkOut::default();
         for t in self.boot_reports.iter_mut().filter_map(Option::take) {
             send(&mut self.link, &mut self.tx, &t);
@@ -138,7 +140,8 @@ impl LinkTask<'_> {
             stats.rx_lost.fetch_add(lost, Ordering::Relaxed);
         }
         let mut routes: heapless::Vec<Route, 4> = heapless::Vec::new();
-        while let Some(b) = self.rx.next(dma) {
+        let mut overtaken = 0;
+        while let Some(b) = self.rx.next(dma, &mut overtaken) {
             stats.rx_bytes.fetch_add(1, Ordering::Relaxed);
             let (link, tx) = (&mut self.link, &mut self.tx);
             let mut acks: heapless::Vec<Telemetry, 1> = heapless::Vec::new();
@@ -161,6 +164,9 @@ impl LinkTask<'_> {
                 self.route(r, stats);
             }
             routes.clear();
+        }
+        if overtaken > 0 {
+            stats.rx_lost.fetch_add(overtaken, Ordering::Relaxed);
         }
     }
 
@@ -212,9 +218,12 @@ impl LinkTask<'_> {
     /// (it stops the scheme when samples come back) and the fault
     /// reported, once.
     fn supervise(&mut self, mcu_us: u64, stats: &Stats) -> bool {
-        let Some(from) = self.sensors_from.filter(|_| self.sensors) else {
+        let Window::From(from) = self.window else {
             return false;
         };
+        if !self.sensors {
+            return false;
+        }
         let last = if stats.samples.load(Ordering::Relaxed) == 0 {
             from as u32
         } else {
@@ -238,6 +247,22 @@ impl LinkTask<'_> {
     pub fn started_us(&self) -> u64 {
         self.clock_start
     }
+}
+
+/// Since when the IMU's silence is a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Window {
+    /// From the link task's first run: the end of `init`, whatever it
+    /// took (a boot that erases the journal takes up to 4 s, the
+    /// datasheet's worst for two 128 KiB sectors,
+    /// [`crate::record::ERASE_WORST_US`]); the data-ready interrupt is
+    /// unmasked only then, so no edge can come before.
+    FirstRun,
+    /// Not yet (the QEMU harness powers its sensors when the host's
+    /// configuration has come).
+    Later,
+    /// From this MCU time, µs.
+    From(u64),
 }
 
 /// A refusal of the command itself (malformed, out of bounds), not of

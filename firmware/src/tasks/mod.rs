@@ -54,8 +54,7 @@ pub const OUT_Q: usize = 32;
 pub const TX_Q: usize = 2048;
 /// No IMU sample for this long stops the motor and reports
 /// [`Fault::ImuTimeout`], µs: well inside the watchdog's shortest period
-/// (the IWDG's 100 ms at the LSI's typical 32 kHz is 68 ms at its 47 kHz
-/// worst, RM0090 and the STM32F405 datasheet), so the fault is told and
+/// ([`crate::watchdog::RUN`], a host test checks it), so the fault is told and
 /// the motor off before the watchdog resets a board whose tick stopped;
 /// the link task sees it within one of its 10 ms periods.
 pub const IMU_TIMEOUT_US: u32 = 20_000;
@@ -71,7 +70,7 @@ mod tick;
 
 pub use config::{nav_config, Tuning, FACTORY};
 use health::COUNTED;
-pub use link::{LinkOut, LinkTask};
+pub use link::{LinkOut, LinkTask, Window};
 pub use nav::NavTask;
 pub use stats::Stats;
 pub use tick::TickTask;
@@ -228,7 +227,7 @@ impl<'a> Program<'a> {
             to_nav: nav_cmd_p,
             feeder: Feeder::default(),
             sensors: imu.is_ok(),
-            sensors_from: imu.is_ok().then_some(boot.now_us),
+            window: link::Window::FirstRun,
             last_run_us: boot.now_us,
             healthy_told: false,
             clock_start: boot.now_us,

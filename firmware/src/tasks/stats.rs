@@ -29,6 +29,9 @@ pub struct Stats {
     pub rx_bytes: AtomicU32,
     /// Bytes lost on receive (overrun flag, queue full).
     pub rx_lost: AtomicU32,
+    /// The USART's line errors: overruns, noise, framing
+    /// ([`crate::uart_rx::LineErrors`]).
+    pub rx_line: [AtomicU32; 3],
     /// Telemetry lost in the tasks' queues.
     pub out_lost: AtomicU32,
     /// The MCU clock's low 32 bits at the last IMU sample, µs.

@@ -9,6 +9,6 @@ const ALL: [Telemetry; 9] = [
     Telemetry::Fault { t_us: 4, fault: FAULT, count: 1 },
     Telemetry::Ack { seq: 5, status: STATUS },
     Telemetry::CalibrationChange { d_bias_radps: [0.0; 3], d_m_k: [0.0; 3] },
-    Telemetry::Health { t_us: 6, reset: RESET, tick_worst: 1, tick_overruns: 0, nav_worst: 1, nav_overruns: 0, samples_dropped: 0, samples_duplicated: 0, rx_bytes: 1, rx_lost: 0, init_stack_bytes: 1, stack_bytes: 1 },
+    Telemetry::Health { t_us: 6, reset: RESET, tick_worst: 1, tick_overruns: 0, nav_worst: 1, nav_overruns: 0, samples_dropped: 0, samples_duplicated: 0, rx_bytes: 1, rx_lost: 0, rx_line_errors: [0, 0, 0], init_stack_bytes: 1, stack_bytes: 1 },
     Telemetry::Config { lat_e7: 1, height_mm: 2, base_deg: [0.0; 3], scheme: SCHEME, rate_dps: 30.0, count: 0, aided: 0, lon_e7: 3 },
 ];

@@ -154,7 +154,7 @@ impl Motor for BoardMotor {
 pub struct BoardWatchdog;
 impl BoardWatchdog {
     /// Nothing to start.
-    pub fn start(&mut self) {}
+    pub fn run_period(&mut self) {}
 }
 impl Watchdog for BoardWatchdog {
     fn feed(&mut self) {

@@ -16,7 +16,7 @@ pub enum Telemetry {
     Fault { t_us: u64, fault: u8, count: u32 },
     Ack { seq: u16, status: u8 },
     CalibrationChange { d_bias_radps: [f32; 3], d_m_k: [f32; 3] },
-    Health { t_us: u64, reset: u8, tick_worst: u32, tick_overruns: u32, nav_worst: u32, nav_overruns: u32, samples_dropped: u32, samples_duplicated: u32, rx_bytes: u32, rx_lost: u32, init_stack_bytes: u32, stack_bytes: u32 },
+    Health { t_us: u64, reset: u8, tick_worst: u32, tick_overruns: u32, nav_worst: u32, nav_overruns: u32, samples_dropped: u32, samples_duplicated: u32, rx_bytes: u32, rx_lost: u32, rx_line_errors: [u32; 3], init_stack_bytes: u32, stack_bytes: u32 },
     Config { lat_e7: i32, height_mm: i32, base_deg: [f32; 3], scheme: u8, rate_dps: f32, count: u8, aided: u8, lon_e7: i32 },
 }
 
