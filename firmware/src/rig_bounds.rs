@@ -120,3 +120,63 @@ impl Rig {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spi_clock_is_never_above_what_is_asked() {
+        // The HAL asked 8 MHz ran 84 / 8 = 10.5 MHz; here 5.25 MHz.
+        assert_eq!(spi_clock(APB2_HZ, 8_000_000), Some((16, 5_250_000)));
+        assert_eq!(spi_clock(APB2_HZ, 5_250_000), Some((16, 5_250_000)));
+        assert_eq!(spi_clock(APB2_HZ, 5_000_000), Some((32, 2_625_000)));
+        assert_eq!(spi_clock(APB2_HZ, 42_000_000), Some((2, 42_000_000)));
+        assert_eq!(spi_clock(APB2_HZ, 300_000), None);
+        // Each divided clock, asked again, is itself (the HAL's rounding
+        // takes a power of two exactly: 84 MHz / f = the divisor).
+        for k in 1..=8 {
+            let f = APB2_HZ >> k;
+            assert_eq!(spi_clock(APB2_HZ, f), Some((1 << k, f)));
+        }
+    }
+
+    #[test]
+    fn the_shipped_rig_passes_and_bad_values_are_refused() {
+        assert_eq!(crate::rig::RIG.check(), Ok(()));
+        let good = crate::rig::RIG;
+        let bad = [
+            Rig {
+                counts_per_rev: 500,
+                ..good
+            },
+            Rig {
+                counts_per_rev: 6_000_000,
+                ..good
+            },
+            Rig {
+                kt_nm_per_a: f64::NAN,
+                ..good
+            },
+            Rig {
+                supply_v: 1.0,
+                ..good
+            },
+            Rig {
+                coulomb_nm: -1.0,
+                ..good
+            },
+            Rig {
+                pwm_hz: 700_000,
+                ..good
+            },
+            Rig {
+                spi_max_hz: 30_000_000,
+                ..good
+            },
+        ];
+        for r in bad {
+            assert!(r.check().is_err(), "{r:?}");
+        }
+    }
+}
