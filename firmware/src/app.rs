@@ -92,8 +92,6 @@ mod app {
             link,
             uart,
         } = program;
-        #[cfg(feature = "qemu")]
-        hw::sensors_at_init(link);
         let mut wdg = board.wdg;
         wdg.run_period();
         hw::enable_interrupts(link.sensors());

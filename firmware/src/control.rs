@@ -190,6 +190,9 @@ impl Control {
             }
             ControlCmd::Stop => self.stop(t_us, None, out),
             ControlCmd::Halt(f) => self.stop(t_us, Some(f), out),
+            // The scheme in use, sent again (a host configuring a board
+            // that has it stored): the motion goes on as it was.
+            ControlCmd::Scheme(s) if s == self.profile.scheme() => {}
             ControlCmd::Scheme(s) => {
                 if let Ok(p) = Profile::new(s, self.cfg.limits) {
                     self.profile = p;

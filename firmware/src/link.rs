@@ -104,6 +104,13 @@ impl Link {
         }
     }
 
+    /// A command taken as [`Self::rx`] takes it, its routes dropped: the
+    /// configuration it leaves in [`Self::config`] (a replay's stored
+    /// configuration, `crate::replay::stored_journal`).
+    pub fn apply(&mut self, c: Command) {
+        let _ = self.take(0, c, &mut |_| {});
+    }
+
     /// Routes a checked command; `None` when navigation acknowledges it,
     /// or the link task once the configuration is stored.
     fn take(&mut self, seq: u16, c: Command, route: &mut impl FnMut(Route)) -> Option<Status> {

@@ -123,6 +123,44 @@ pub fn outcome(nav: &Navigator<'_>) -> Outcome {
     }
 }
 
+/// Records the boot's journal holds beyond what it can take before it
+/// moves on: [`crate::record::LOW_WATER`] slots or fewer left.
+fn records_to_fill(sector: crate::record::Sector) -> u32 {
+    let slots = sector.len / protocol::record::RECORD_LEN as u32;
+    slots.saturating_sub(crate::record::LOW_WATER) + 1
+}
+
+/// Writes into `f` the journal a board configured by `commands` (applied
+/// to the factory configuration, as the link takes them) has left after
+/// many configurations: the resulting configuration stored, its active
+/// sector nearly full, so the boot that opens it moves the journal to the
+/// other sector and erases both (the boot the datasheet's erase times
+/// make longest). The QEMU build and its host twin boot from it, with the
+/// sensors running from reset; the host's commands, sent again, change
+/// nothing (the configuration and the scheme are the ones in use).
+///
+/// # Errors
+/// The flash refused a write.
+pub fn stored_journal<F: crate::record::Flash>(
+    f: &mut F,
+    sectors: [crate::record::Sector; 2],
+    commands: impl IntoIterator<Item = protocol::Command>,
+    limits: core_nav::scheme::Limits,
+) -> Result<protocol::record::BoardConfig, crate::record::FlashError> {
+    let mut link = crate::link::Link::new(crate::tasks::FACTORY, limits);
+    for c in commands {
+        link.apply(c);
+    }
+    let cfg = link.config;
+    let mut j = crate::record::Journal::open(f, sectors)?;
+    let [first, _] = sectors;
+    for _ in 0..records_to_fill(first) {
+        j.write(cfg, None)?;
+        while j.step(f)? {}
+    }
+    Ok(cfg)
+}
+
 /// The board's tuning for a replay: the compiled one, with the replay's
 /// encoder and, when it is aided, its filter (the recording's sensor
 /// profile, as `rins navigate --gnss` takes it).

@@ -24,7 +24,7 @@
 //!            (m/s^2), rate (rad/s) per sample, table rate over a window
 //!            (rad/s)
 //!          | u32 zero-velocity updates (0 / 1)
-//!          | u32 configuration commands before the IMU powers up
+//!          | u32 configuration commands (first in the stream)
 //!          | u32 fix latency (µs: a fix is sent this long after its time of validity)
 //! record:  u8 kind | u64 t_us | words (u32), as many as the kind has:
 //!          1 IMU (7): gyro xyz, accel xyz (f32 bits), temp (f32 bits)
@@ -34,7 +34,7 @@
 //!            is its time of validity. It goes to the board as a command
 //!            frame over the link, `latency` later.
 //!          4 command (9): a configuration command's payload, its length
-//!            in the first byte (t_us 0: sent before the IMU powers up).
+//!            in the first byte (t_us 0: the host's configuration, sent first).
 //! trailer: u8 mode (3 = navigating) | 3 x f32 p_n | 3 x f32 v_n (bits)
 //! ```
 
@@ -67,8 +67,8 @@ pub struct Header {
     /// Aided navigation (a moving vehicle with GNSS): the site's longitude
     /// (deg) and the navigator's settings.
     pub aided: Option<(f64, AidedConfig)>,
-    /// Configuration commands the host sends before the IMU powers up
-    /// (the QEMU harness holds the sensors until they are acknowledged).
+    /// Configuration commands the host sends (first in the stream; the
+    /// board boots with them stored, `firmware::replay::stored_journal`).
     pub commands: u32,
     /// How long after its time of validity each fix is sent, µs.
     pub fix_latency_us: u32,
@@ -240,7 +240,7 @@ pub enum Event {
         /// The fix.
         fix: GnssFix,
     },
-    /// A configuration command's payload (sent before the IMU powers up).
+    /// A configuration command's payload (the host's, sent first).
     Command {
         /// Bytes used.
         len: u8,

@@ -160,6 +160,33 @@ impl Session {
         Ok(frames)
     }
 
+    /// Waits up to `timeout` for the board's first frame (a board just
+    /// powered answers only when its `init` ends: up to about 5 s when the
+    /// boot moves its flash journal, two 128 KiB erases at the datasheet's
+    /// worst); the frames go to `seen`. Bytes sent before would arrive
+    /// while `init` runs.
+    ///
+    /// # Errors
+    /// Nothing came within `timeout`, or the port's.
+    pub fn wait_for_board(
+        &mut self,
+        timeout: Duration,
+        seen: &mut impl FnMut(&Telemetry),
+    ) -> Result<()> {
+        let start = Instant::now();
+        while start.elapsed() < timeout && !self.closed {
+            let frames = self.pump()?;
+            frames.iter().for_each(&mut *seen);
+            if !frames.is_empty() {
+                return Ok(());
+            }
+        }
+        bail!(
+            "the board sent nothing in {:.0} s: is it powered, on this port, at this baud?",
+            timeout.as_secs_f64()
+        )
+    }
+
     /// Sends `c` and waits for its `Ack` (resending twice); the frames
     /// that came meanwhile go to `seen`.
     ///

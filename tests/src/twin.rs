@@ -1,10 +1,13 @@
 //! The QEMU test's host twin: a replay ([`protocol::replay`]) run through
 //! the board's program on the host ([`crate::board::HostBoard`]) as the
-//! QEMU build runs it: the configuration commands first (byte by byte
-//! through the UART's queue), then one data-ready edge a millisecond with
-//! the replay's sensors, each GNSS fix sent `fix_latency_us` after its
-//! time of validity (on the board's clock: the relay's mapping, the
-//! board's first IMU frame being the recording's first sample).
+//! QEMU build runs it: booted from the journal the replay's configuration
+//! left nearly full (`firmware::replay::stored_journal`: the boot erases
+//! both sectors, 4 s on the twin's clock), the sensors on from reset (one
+//! data-ready edge a millisecond from the end of `init`), the host's
+//! configuration commands sent again through the UART (they change
+//! nothing), each GNSS fix sent `fix_latency_us` after its time of
+//! validity (on the board's clock: the relay's mapping, the board's first
+//! IMU frame being the recording's first sample).
 
 use crate::board::{HostBoard, NorFlash};
 use firmware::replay::{
@@ -12,8 +15,9 @@ use firmware::replay::{
 };
 use protocol::Command;
 
-/// The QEMU build's clock at boot (1.5 s below the u32 wrap).
-pub const CLOCK_START: u32 = u32::MAX - 1_500_000;
+/// The QEMU build's clock at boot (1.5 s below the u32 wrap after the
+/// boot's two erases).
+pub const CLOCK_START: u32 = u32::MAX - 1_500_000 - 2 * firmware::record::ERASE_WORST_US;
 
 /// What the twin's run came to.
 pub struct TwinRun {
@@ -124,24 +128,32 @@ pub fn run(bytes: &[u8], opt: TwinOptions) -> TwinRun {
     if let Some(hz) = opt.horizon_us {
         tuning.nav.fix_horizon_us = hz;
     }
-    let mut b = HostBoard::new(tuning, NorFlash::new(4096), u64::from(CLOCK_START), Ok(()));
-    // As `rins record` configures a board: each command sent when the
-    // last is acknowledged (a configuration once it is stored); the
-    // sensors powered when the configuration has come (as the QEMU
-    // harness does).
-    b.program.link.sensors_later();
-    for e in &events {
-        if let Event::Command { len, payload } = e {
-            let (_, c) = Command::decode(&payload[..usize::from(*len)]).expect("a command");
-            let acks = b.acks();
-            b.command(&c);
-            while b.acks() == acks {
-                b.idle(1_000);
-            }
-        }
+    let commands: Vec<Command> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Command { len, payload } => Some(
+                Command::decode(&payload[..usize::from(*len)])
+                    .expect("a command")
+                    .1,
+            ),
+            _ => None,
+        })
+        .collect();
+    let mut flash = NorFlash::new(4096);
+    firmware::replay::stored_journal(
+        &mut flash,
+        crate::board::JOURNAL,
+        commands.iter().copied(),
+        tuning.control.limits,
+    )
+    .expect("the stored journal");
+    let mut b = HostBoard::new(tuning, flash, u64::from(CLOCK_START), Ok(()));
+    // As `rins record` configures a board, at once: the configuration
+    // and the scheme are the ones stored, so nothing changes whenever
+    // they are taken (under QEMU they arrive at no fixed sample).
+    for c in &commands {
+        b.command(c);
     }
-    b.link_due();
-    b.program.link.sensors_started();
     let latency = opt.latency_us.unwrap_or(u64::from(h.fix_latency_us));
     let first_rec = events.iter().find_map(|e| match e {
         Event::Imu { t_us, .. } => Some(*t_us),

@@ -60,17 +60,10 @@ impl LinkTask<'_> {
         self.sensors
     }
 
-    /// The IMU's edges are not expected yet (the QEMU harness powers its
-    /// sensors when the host's configuration has come).
+    /// The IMU's edges are not expected (a host test's board that idles
+    /// with no sensors, to count what else it reports).
     pub fn sensors_later(&mut self) {
         self.window = Window::Later;
-    }
-
-    /// The IMU's edges are expected from now on.
-    pub fn sensors_started(&mut self) {
-        if self.window == Window::Later {
-            self.window = Window::From(self.last_run_us);
-        }
     }
 
     /// One run (every 10 ms).
@@ -258,8 +251,7 @@ pub enum Window {
     /// [`crate::record::ERASE_WORST_US`]); the data-ready interrupt is
     /// unmasked only then, so no edge can come before.
     FirstRun,
-    /// Not yet (the QEMU harness powers its sensors when the host's
-    /// configuration has come).
+    /// Not expected (a host test's board with no sensors).
     Later,
     /// From this MCU time, µs.
     From(u64),

@@ -129,6 +129,7 @@ pub fn run(a: &Args) -> Result<()> {
         rins::link::BOARD_BAUD,
         "--baud",
     )?);
+    s.wait_for_board(std::time::Duration::from_secs(30), &mut |_| {})?;
     let status = s.command(&c, &mut |_| {})?;
     if a.json {
         println!(

@@ -170,6 +170,7 @@ fn record_port(a: &Args, port: &str) -> Result<Vec<u8>> {
             .find(|w| w[1].angle_rad != w[0].angle_rad)
             .map_or(30f64.to_radians(), |w| w[0].rate_to(&w[1]));
         let rate = (rate.to_degrees() * 10.0).round().to_radians() / 10.0;
+        s.wait_for_board(std::time::Duration::from_secs(30), &mut |t| frames.push(*t))?;
         for c in rins::link::config_commands(rec, rate) {
             let st = s.command(&c, &mut |t| frames.push(*t))?;
             if st != protocol::Status::Accepted {

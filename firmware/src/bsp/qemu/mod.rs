@@ -5,11 +5,16 @@
 //!
 //! - the IMU and the encoder: a replay (`target/qemu/current.bin`, made by
 //!   `rins qemu-replay` and its host twin), read through semihosting;
-//! - the IMU's data-ready line: TIM2 at 1 kHz pending EXTI4, once the
-//!   host's configuration commands have come through the USART;
+//! - the IMU's data-ready line: TIM2 at 1 kHz pending EXTI4 from the end
+//!   of `init` on (the sensors powered from reset, as on the board);
 //! - the motor's PWM, the watchdog and the flash: a duty kept, feeds
 //!   counted, a flash model in RAM (the journal's host tests cut its
-//!   writes);
+//!   writes) that holds, at boot, the journal the replay's configuration
+//!   left nearly full (`crate::replay::stored_journal`), so `init` moves it
+//!   and erases both sectors, each putting the datasheet's worst time
+//!   ([`crate::record::ERASE_WORST_US`]) on the firmware's clock (TIM5);
+//!   the host's commands,
+//!   sent again through the USART, change nothing;
 //! - the clock set-up: none (no RCC model; TIM5's input is QEMU's 1 GHz);
 //! - the cycle counter: SysTick, which under `-icount shift=0` counts
 //!   instructions (one per ns of virtual time; 5.95 a count at the model's
@@ -38,9 +43,9 @@ use stm32f4xx_hal::pac;
 
 /// QEMU's timer input clock (its STM32F405 model's TIM2-5: 1 GHz).
 pub const TIMER_HZ: u32 = 1_000_000_000;
-/// The 64-bit clock's counter at boot: 1.5 s below the u32 wrap, so every
-/// replay crosses it.
-pub const CLOCK_START: u32 = u32::MAX - 1_500_000;
+/// The 64-bit clock's counter at boot: 1.5 s below the u32 wrap after the
+/// boot's two erases, so every replay crosses it.
+pub const CLOCK_START: u32 = u32::MAX - 1_500_000 - 2 * crate::record::ERASE_WORST_US;
 /// The journal's model (the host twin's too): two 2 KiB sectors of RAM.
 pub const JOURNAL: [Sector; 2] = crate::record::MODEL_SECTORS;
 /// The replay the runner put in place.
@@ -53,9 +58,9 @@ const STRESS: core::ops::Range<u32> = 15_000..15_100;
 /// chip at 1.25 cycles per instruction and 168 MHz), beyond the tick's 1 ms.
 const STRESS_LOOPS: u32 = 1_000_000;
 
-static POWERED: AtomicBool = AtomicBool::new(false);
 static DONE: AtomicBool = AtomicBool::new(false);
-static NEED_COMMANDS: AtomicU32 = AtomicU32::new(0);
+/// The flash model's erases.
+static ERASES: AtomicU32 = AtomicU32::new(0);
 static EDGES: AtomicU32 = AtomicU32::new(0);
 static HW_COUNT: AtomicU32 = AtomicU32::new(0);
 static NAV_RUNS: AtomicU32 = AtomicU32::new(0);
@@ -184,6 +189,18 @@ impl Flash for BoardFlash {
             .get_mut(a..a + s.len as usize)
             .ok_or(FlashError::OutOfRange)?
             .fill(0xFF);
+        // The board's sector takes up to 2 s: put on the clock the
+        // firmware reads (TIM5's µs, started before the journal opens).
+        // (A busy wait of 2 s of virtual time is 2e9 instructions, minutes
+        // of the host's time for each replay.)
+        // SAFETY: TIM5's counter, which only this build's init and the
+        // clock's reads touch.
+        unsafe {
+            (*pac::TIM5::ptr())
+                .cnt()
+                .modify(|r, w| w.bits(r.bits().wrapping_add(crate::record::ERASE_WORST_US)))
+        };
+        ERASES.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
 }
@@ -209,9 +226,13 @@ impl Board {
         }) else {
             fail("bad replay header");
         };
-        NEED_COMMANDS.store(header.commands, Ordering::Relaxed);
         let t = crate::replay::tuning(&header, crate::tuning::board());
         cortex_m::interrupt::free(|cs| *TUNING.borrow(cs).borrow_mut() = Some(t));
+        let mut flash = BoardFlash(match cortex_m::singleton!(: [u8; 4096] = [0xFF; 4096]) {
+            Some(m) => m,
+            None => fail("the flash model is taken twice"),
+        });
+        store_configuration(&mut flash, header.commands, t);
         start_usart(&dp.USART3, 42_000_000, true);
         start_clock(&dp.TIM5, TIMER_HZ, CLOCK_START);
         start_tim3(&dp.TIM3, TIMER_HZ, 100);
@@ -229,16 +250,55 @@ impl Board {
                 reads: 0,
             },
             encoder: BoardEncoder,
-            flash: BoardFlash(match cortex_m::singleton!(: [u8; 4096] = [0xFF; 4096]) {
-                Some(m) => m,
-                None => fail("the flash model is taken twice"),
-            }),
+            flash,
             wdg: BoardWatchdog,
             imu_status: Ok(()),
             // QEMU has no RCC model: no clock set-up to time out.
             clock_status: Ok(()),
         }
     }
+}
+
+/// The journal the replay's configuration commands (its first
+/// `commands` records) left, nearly full, into the flash model
+/// (`crate::replay::stored_journal`), read through a second handle on the
+/// replay.
+fn store_configuration(flash: &mut BoardFlash, commands: u32, t: Tuning) {
+    // SAFETY: a NUL-terminated path; mode 1 = "rb".
+    let fd = unsafe { syscall!(OPEN, REPLAY.as_ptr(), 1, REPLAY.len() - 1) };
+    let mut h = [0u8; HEADER];
+    if fd == usize::MAX || !read(fd, &mut h) {
+        fail("cannot read the replay's commands");
+    }
+    let mut left = commands;
+    let cmds = core::iter::from_fn(|| {
+        while left > 0 {
+            left -= 1;
+            let mut r = [0u8; RECORD_MAX];
+            let head = r.get_mut(..RECORD_HEAD).is_some_and(|b| read(fd, b));
+            let body = r.first().copied().and_then(record_body).unwrap_or(0);
+            let ok = head
+                && r.get_mut(RECORD_HEAD..RECORD_HEAD + body)
+                    .is_some_and(|b| read(fd, b));
+            if !ok {
+                fail("the replay's commands end early");
+            }
+            if let Some(Event::Command { len, payload }) = decode(&r) {
+                let c = payload
+                    .get(..usize::from(len))
+                    .and_then(|p| protocol::Command::decode(p).ok());
+                if let Some((_, c)) = c {
+                    return Some(c);
+                }
+            }
+        }
+        None
+    });
+    if crate::replay::stored_journal(flash, JOURNAL, cmds, t.control.limits).is_err() {
+        fail("the flash model refused the stored journal");
+    }
+    // SAFETY: the handle opened above.
+    unsafe { syscall!(CLOSE, fd) };
 }
 
 /// The clock's counter at boot.
@@ -298,7 +358,7 @@ pub fn stress() -> bool {
 /// Whether the data-ready stand-in may fire: while the replay runs, and
 /// during the overrun probe after it.
 pub fn sensors_on() -> bool {
-    (POWERED.load(Ordering::Relaxed) && !DONE.load(Ordering::Relaxed))
+    !DONE.load(Ordering::Relaxed)
         || matches!(PROBE.load(Ordering::Relaxed), PROBE_ARMED | PROBE_RUNNING)
 }
 
@@ -371,20 +431,8 @@ pub fn count_edge() {
     EDGES.fetch_add(1, Ordering::Relaxed);
 }
 
-/// The IMU powers up when the host's configuration has come.
-pub fn after_link(link: &mut LinkTask<'static>) {
-    if !POWERED.load(Ordering::Relaxed) && link.commands() >= NEED_COMMANDS.load(Ordering::Relaxed)
-    {
-        POWERED.store(true, Ordering::Relaxed);
-        link.sensors_started();
-    }
-}
-
-/// The replay's sensors are powered only when the host's configuration
-/// has come (`after_link`): no edge is expected before.
-pub fn sensors_at_init(link: &mut LinkTask<'static>) {
-    link.sensors_later();
-}
+/// Nothing after a link run: the sensors run from reset.
+pub fn after_link(_: &mut LinkTask<'static>) {}
 
 /// At the replay's end: the report, and QEMU's exit with its result.
 pub fn after_nav(nav: &mut NavTask<'static>) {
@@ -403,6 +451,7 @@ pub fn after_nav(nav: &mut NavTask<'static>) {
         feeds: FEEDS.load(Ordering::Relaxed),
         clock_start: CLOCK_START,
         probe_overruns,
+        erases: ERASES.load(Ordering::Relaxed),
     };
     let host = cortex_m::interrupt::free(|cs| *TRAILER_BYTES.borrow(cs).borrow())
         .map(|t| decode_outcome(&t));
@@ -421,6 +470,8 @@ pub struct Harness {
     pub feeds: u32,
     /// The clock's counter at boot.
     pub clock_start: u32,
+    /// The flash model's erases (the boot's).
+    pub erases: u32,
     /// Overruns counted when one tick was stalled past the next edge
     /// after the replay (one expected).
     pub probe_overruns: u32,

@@ -145,6 +145,10 @@ pub fn report(nav: &mut NavTask<'static>, h: &Harness, host: Option<Outcome>, st
         ),
         ("the 64-bit clock crossed the u32 wrap", now < h.clock_start),
         (
+            "a boot that erased twice (4 s), the sensors on from reset: navigating at the end",
+            h.erases == 2 && outcome(&nav.nav).mode == 3,
+        ),
+        (
             "a tick stalled past the next edge is one overrun counted",
             h.probe_overruns == 1,
         ),
