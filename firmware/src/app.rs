@@ -94,6 +94,7 @@ mod app {
         } = program;
         let mut wdg = board.wdg;
         wdg.run_period();
+        hw::rx_ready();
         hw::enable_interrupts(link.sensors());
         (
             Shared {

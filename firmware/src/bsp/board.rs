@@ -108,9 +108,10 @@ fn start_clocks(
                 .sysclk(SYSCLK_HZ.Hz())
                 .pclk1(APB1_HZ.Hz()),
         ),
-        // (The HAL's record then says 16 MHz: the SPI and the PWM it sets
-        // up run 10.5 times faster than asked. The board is stopped, so
-        // neither is used: the motor's duty stays 0.)
+        // (The HAL's record then says 16 MHz: the SPI it sets up runs at
+        // 84 MHz / 4 = 21 MHz (it divides 16 MHz for 5.25: /4), inside the
+        // ICM-42688-P's 24 MHz, for the IMU's start only; the PWM at 210
+        // kHz. The board is stopped: the motor's duty stays 0.)
         Plan::Hsi168(_) | Plan::Hsi16(_) => rcc.constrain(),
     };
     (rcc, plan, plan.status())
@@ -138,7 +139,19 @@ fn hsi_pll(rcc: &pac::RCC) -> bool {
             .modify(|r, w| w.bits((r.bits() & !0xFCF0) | (0b101 << 10) | (0b100 << 13)));
         rcc.cfgr().modify(|r, w| w.bits((r.bits() & !0b11) | 0b10));
     }
-    (0..polls).any(|_| (rcc.cfgr().read().bits() >> 2) & 0b11 == 0b10)
+    if (0..polls).any(|_| (rcc.cfgr().read().bits() >> 2) & 0b11 == 0b10) {
+        return true;
+    }
+    // It did not take: back to HSI (SW 0) with the prescalers at 1, the
+    // PLL off, as `Board::new` then assumes.
+    // SAFETY: SW (1:0) 0, HPRE/PPRE1/PPRE2 0: the reset's values.
+    unsafe {
+        rcc.cfgr()
+            .modify(|r, w| w.bits(r.bits() & !(0xFCF0 | 0b11)))
+    };
+    let _ = (0..polls).any(|_| (rcc.cfgr().read().bits() >> 2) & 0b11 == 0);
+    rcc.cr().modify(|_, w| w.pllon().clear_bit());
+    false
 }
 
 /// The IMU (absent when it did not come up: the tick never runs).
@@ -179,7 +192,7 @@ impl Motor for BoardMotor {
 /// top of `init` at [`crate::watchdog::BOOT`]'s period (the boot's
 /// erases), set to [`crate::watchdog::RUN`]'s when the tasks start. (The
 /// HAL's driver picks its own prescaler and reload for a period asked at
-/// the typical LSI: /256 and 12, 65-196 ms over the LSI's range.)
+/// the typical LSI: /256 and 12, 71-196 ms over the LSI's range.)
 pub struct BoardWatchdog(pac::IWDG);
 
 /// IWDG_KR's keys: reload, register access, start (RM0090 21.4.1).
@@ -448,13 +461,18 @@ pub fn since(c0: u32) -> u32 {
     cycles().wrapping_sub(c0)
 }
 
-/// Stops for good at initialisation, in the safe state (the PWM duty 0,
-/// the watchdog not started): the board stays halted with the reason in
-/// the log instead of panicking.
+/// Stops for good at initialisation, in the safe state (the PWM duty 0):
+/// the board stays halted with the reason in the log instead of
+/// panicking. The watchdog runs from the top of `init` and cannot be
+/// stopped: it is fed here (a halt, not a reset loop).
 pub fn halt(why: &str) -> ! {
     defmt::error!("halted at init: {=str}", why);
     loop {
-        cortex_m::asm::wfi();
+        // SAFETY: IWDG_KR's reload key; no other code runs.
+        unsafe { (*pac::IWDG::ptr()).kr().write(|w| w.bits(IWDG_RELOAD)) };
+        // 10 ms at 168 MHz (16 MHz from HSI: 105 ms), inside the boot
+        // period's shortest 5.6 s.
+        cortex_m::asm::delay(SYSCLK_HZ / 100);
     }
 }
 
@@ -563,6 +581,35 @@ pub fn rx_dma_event() {
         RX_HALVES.store(r.from / (RX_LEN / 2), Relaxed);
         RX_RESTARTS.fetch_add(1, Release);
         restart_rx_dma(dma);
+    }
+}
+
+/// When `init` ends, before the stream's interrupt can run: its half-ring
+/// events during `init` (up to 4 s of erases, 40 rings at the line's full
+/// rate) have merged in the flags, so the count of halves is set from the
+/// stream's position in the ring, as if it had not wrapped; a wrap during
+/// `init` (TCIF) counts the older lap's bytes lost (at least).
+pub fn rx_ready() {
+    use core::sync::atomic::Ordering::{Relaxed, Release};
+    // SAFETY: DMA1's flags and stream 1's counter; its interrupt is not
+    // running yet (`init`).
+    let dma = unsafe { &*pac::DMA1::ptr() };
+    let half = |n: u32| u32::from(RX_LEN - n.clamp(1, RX_LEN) >= RX_LEN / 2);
+    for _ in 0..4 {
+        let n1 = dma.st(1).ndtr().read().bits() & 0xFFFF;
+        let lisr = dma.lisr().read().bits();
+        // SAFETY: writing ones clears stream 1's HT and TC flags only.
+        dma.lifcr().write(|w| unsafe { w.bits(0b11 << 10) });
+        let n2 = dma.st(1).ndtr().read().bits() & 0xFFFF;
+        // The same half, no wrap between the reads: no event lost or
+        // counted twice.
+        if n2 <= n1 && half(n1) == half(n2) {
+            if lisr & (1 << 11) != 0 {
+                STATS.rx_lost.fetch_add(n2.min(RX_LEN), Relaxed);
+            }
+            RX_HALVES.store(half(n2), Release);
+            return;
+        }
     }
 }
 

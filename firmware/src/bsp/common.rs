@@ -323,7 +323,7 @@ pub fn reset_cause(rcc: &pac::RCC) -> protocol_codes::ResetCause {
 /// The protocol's codes.
 pub use crate::protocol::codes as protocol_codes;
 
-/// The IWDG and the timers stop while a debugger halts the core, and the
+/// The IWDG and the timers (not the motor's PWM) stop while a debugger halts the core, and the
 /// debug clocks keep running in sleep (`wfi` in idle would stop RTT and
 /// the probe otherwise): DBGMCU.
 pub fn freeze_for_debugger(d: &pac::DBGMCU) {
@@ -334,8 +334,11 @@ pub fn freeze_for_debugger(d: &pac::DBGMCU) {
         // APB1_FZ: TIM2 (0), TIM3 (1), TIM4 (2), TIM5 (3), IWDG (12).
         d.apb1_fz()
             .modify(|r, w| w.bits(r.bits() | 0b1111 | (1 << 12)));
-        // APB2_FZ: TIM10 (17): the motor's PWM.
-        d.apb2_fz().modify(|r, w| w.bits(r.bits() | (1 << 17)));
+        // APB2_FZ: TIM10 (the motor's PWM) is left running: frozen, its
+        // output would stay at whatever level it had (full power with the
+        // probability of the duty; TIM1's outputs went off with MOE,
+        // TIM10 has no such gate, RM0090 19.3); running, the motor keeps
+        // its last duty while the core is halted.
     }
 }
 

@@ -493,3 +493,6 @@ pub fn rx_soft() -> Option<&'static crate::uart_rx::SoftDma> {
 
 /// No DMA runs under QEMU.
 pub fn rx_dma_event() {}
+
+/// No DMA runs under QEMU.
+pub fn rx_ready() {}
