@@ -259,8 +259,12 @@ pub fn usart_service(
 /// shows no line error (`crate::uart_rx::count_line_errors`), where the
 /// DMA receives.
 pub fn rearm_line_errors(u: &mut pac::USART3) {
-    let dma = u.cr3().read().bits() & (1 << 6) != 0;
-    if dma && crate::uart_rx::line_clear(u32::from(u.sr().read().bits())) {
+    // SR is read only while EIE is off: a read of SR followed by the DMA's
+    // read of DR clears the flags, and would hide an error the interrupt
+    // has not counted yet.
+    let cr3 = u.cr3().read().bits();
+    let (dma, eie) = (cr3 & (1 << 6) != 0, cr3 & 1 != 0);
+    if dma && !eie && crate::uart_rx::line_clear(u32::from(u.sr().read().bits())) {
         // SAFETY: EIE on, the rest of CR3 kept.
         u.cr3().modify(|r, w| unsafe { w.bits(r.bits() | 1) });
     }
