@@ -342,6 +342,9 @@ pub struct AidedStep<T: Real> {
     /// NIS and components used (a fix's two updates take two samples: see
     /// [`AidedNav::step`]).
     pub fix_velocity: Option<(T, u8)>,
+    /// The fix processed at this sample had both horizontal components
+    /// taken by the gate (false without a fix).
+    pub fix_horizontal_taken: bool,
     /// The detector said still (evaluated every [`ZUPT_EVERY`] samples; the
     /// last verdict).
     pub still: bool,
@@ -1043,7 +1046,9 @@ impl<T: Real> AidedNav<T> {
         } else if let Some(fix) = self.pending.take() {
             let at = self.pending_at.take();
             let then = at.and_then(|t| self.past_at(t)).unwrap_or(here);
-            out.fix = Some(self.use_fix(&fix, &then, ws.as_deref_mut()));
+            let (nis, used, horizontal) = self.use_fix(&fix, &then, ws.as_deref_mut());
+            out.fix = Some((nis, used));
+            out.fix_horizontal_taken = horizontal;
             vel_set = self.vel_next;
             corrected = true;
         }
@@ -1135,13 +1140,14 @@ impl<T: Real> AidedNav<T> {
     /// time of validity (antenna at `c_b_n l_b`, its velocity
     /// `v + c_b_n (w_ib_b x l_b)`); the white share of the
     /// reported variance is the measurement's, the rest the filter's
-    /// correlated-error state. Returns (NIS, components used).
+    /// correlated-error state. Returns (NIS, components used, both
+    /// horizontal components taken).
     fn use_fix(
         &mut self,
         fix: &GnssFix,
         at: &Past<T>,
         mut ws: Option<&mut Workspace<T>>,
-    ) -> (T, u8) {
+    ) -> (T, u8, bool) {
         let l_n = at.c_b_n * self.lever_b;
         let zp = self.fix_position_n(fix) - (at.p_n + l_n);
         let v_ant = at.v_n + at.c_b_n * at.w_ib_b.cross(&self.lever_b);
@@ -1166,6 +1172,7 @@ impl<T: Real> AidedNav<T> {
             .kf
             .update_position_opt(&zp, &l_n, &sp, ws.as_deref_mut());
         let refused = matches!(rp, Ok(r) if r.rejected > 0);
+        let horizontal = matches!(rp, Ok(r) if r.rejected_mask & 0b011 == 0);
         add(rp);
         if fix.has_velocity() {
             (self.vel_next_z, self.vel_next_sigma, self.vel_next) = (zv, sv, true);
@@ -1201,7 +1208,7 @@ impl<T: Real> AidedNav<T> {
             self.counts.reinits = self.counts.reinits.saturating_add(1);
             self.refused_run = 0;
         }
-        (nis, used)
+        (nis, used, horizontal)
     }
 
     /// The velocity the last two refused fixes' positions imply (m/s, `n`)

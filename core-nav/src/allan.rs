@@ -312,16 +312,102 @@ impl NoiseFit {
 /// Correlation times tried for a Gauss-Markov bias, per decade of tau.
 const GM_PER_DECADE: usize = 8;
 
+/// How far from a model its most outlying point lies, in standard normal
+/// deviates (either side: a term dropped can leave points above the model,
+/// or below where the others, refitted, overshoot): each point's variance
+/// times its degrees of freedom over the model's is chi-square with those
+/// degrees of freedom under the model; its z by Wilson-Hilferty (a point
+/// with 3 degrees of freedom lies 7 times above its mean once in 1e5).
+fn excess(pts: &[AdevPoint], m: &Model) -> f64 {
+    pts.iter()
+        .map(|p| {
+            let k = p.edf.max(1.0);
+            let model = m.var_at(p.tau_s);
+            let x = p.adev * p.adev * k / model;
+            let a = 2.0 / (9.0 * k);
+            libm::fabs((libm::cbrt(x / k) - (1.0 - a)) / libm::sqrt(a))
+        })
+        .filter(|z| z.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max)
+}
+
+/// The deviate a point must reach from white noise's model for any other
+/// term to be named: 1e-5 per point and side, so that white noise's ten
+/// points per curve, six curves per recording, name a term in fewer than
+/// one recording in a thousand.
+pub const TERM_Z: f64 = 4.26;
+
+/// A fitted model: its coefficients (white, flicker, rate random walk,
+/// Gauss-Markov variances), AIC, Gauss-Markov time and white variance's
+/// variance.
+#[derive(Clone, Copy)]
+struct Model {
+    aic: f64,
+    x: [f64; 4],
+    t: f64,
+    var_w: f64,
+}
+
+impl Model {
+    /// The model's Allan variance at `tau`.
+    fn var_at(&self, tau: f64) -> f64 {
+        let [w, f, r, g] = self.x;
+        let gm = if self.t > 0.0 {
+            g * gm_avar(tau, self.t)
+        } else {
+            0.0
+        };
+        w / tau + FLICKER_AVAR * f + r * tau / 3.0 + gm
+    }
+}
+
+/// The best model (least AIC) among those whose terms lie in `allowed`.
+fn best_model(pts: &[AdevPoint], allowed: u8, lo: f64, hi: f64, cap: f64) -> Option<Model> {
+    let decades = libm::log10(hi / lo).max(0.0) + 1.0;
+    let steps = (decades * GM_PER_DECADE as f64) as usize + 1;
+    let mut best: Option<Model> = None;
+    for mask in (1u8..16).filter(|m| m & !allowed == 0) {
+        let on = [mask & 1 != 0, mask & 2 != 0, mask & 4 != 0, mask & 8 != 0];
+        let k = on.iter().filter(|x| **x).count() + usize::from(on[3]);
+        let grid = if on[3] { steps } else { 1 };
+        for g in 0..grid {
+            // From three times the shortest tau (shorter, a Gauss-Markov
+            // bias is white noise by another name over the points) to ten
+            // times the longest.
+            let t = 3.0 * lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
+            let Some((x, cost, var_w)) = fit_terms(pts, on, t, cap) else {
+                continue;
+            };
+            // AIC with the capped-edf chi-square (cost / 2).
+            let aic = 0.5 * cost + 2.0 * k as f64;
+            if best.is_none_or(|b| aic < b.aic) {
+                best = Some(Model {
+                    aic,
+                    x,
+                    t: if on[3] { t } else { 0.0 },
+                    var_w,
+                });
+            }
+        }
+    }
+    best
+}
+
 /// One weighted least-squares fit of the terms in `on` (white, flicker, rate
 /// random walk, Gauss-Markov with correlation time `t`): the coefficients
 /// (variances), the fit's cost, and the white variance's variance.
-fn fit_terms(points: &[AdevPoint], on: [bool; 4], t: f64) -> Option<([f64; 4], f64, f64)> {
+fn fit_terms(
+    points: &[AdevPoint],
+    on: [bool; 4],
+    t: f64,
+    cap: f64,
+) -> Option<([f64; 4], f64, f64)> {
     // Weights from the model, not from the measured points (iteratively
     // reweighted): weights 1 / measured^2 favour the points that scattered
     // low and bias the fit down (by 4 % on an hour of white noise).
-    let mut fit = fit_weighted(points, on, t, None)?;
+    let mut fit = fit_weighted(points, on, t, None, cap)?;
     for _ in 0..3 {
-        fit = fit_weighted(points, on, t, Some(fit.0))?;
+        fit = fit_weighted(points, on, t, Some(fit.0), cap)?;
     }
     Some(fit)
 }
@@ -333,6 +419,7 @@ fn fit_weighted(
     on: [bool; 4],
     t: f64,
     prior: Option<[f64; 4]>,
+    cap: f64,
 ) -> Option<([f64; 4], f64, f64)> {
     use nalgebra::{Matrix4, Vector4};
     let [o0, o1, o2, o3] = on.map(|x| f64::from(u8::from(x)));
@@ -354,7 +441,7 @@ fn fit_weighted(
             .map(|c| f.dot(&Vector4::from(c)))
             .filter(|m| *m > 0.0)
             .unwrap_or(v);
-        let w = p.edf.clamp(1.0, FIT_EDF_CAP) / (s2 * s2);
+        let w = p.edf.clamp(1.0, cap) / (s2 * s2);
         let w_true = p.edf.max(1.0) / (2.0 * s2 * s2);
         a += f * f.transpose() * w;
         meat += f * f.transpose() * (w * w / w_true);
@@ -371,7 +458,7 @@ fn fit_weighted(
             let v = p.adev * p.adev;
             let model = basis(p.tau_s).dot(&x);
             let s2 = if model > 0.0 { model } else { v };
-            p.edf.clamp(1.0, FIT_EDF_CAP) * (model - v) * (model - v) / (s2 * s2)
+            p.edf.clamp(1.0, cap) * (model - v) * (model - v) / (s2 * s2)
         })
         .sum();
     let cov = inv * meat * inv;
@@ -403,29 +490,31 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
     let (lo, hi) = pts.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| {
         (l.min(p.tau_s), h.max(p.tau_s))
     });
-    let decades = libm::log10(hi / lo).max(0.0) + 1.0;
-    let steps = (decades * GM_PER_DECADE as f64) as usize + 1;
-    let mut best: Option<(f64, [f64; 4], f64, f64)> = None;
-    for mask in 1u8..16 {
-        let on = [mask & 1 != 0, mask & 2 != 0, mask & 4 != 0, mask & 8 != 0];
-        let k = on.iter().filter(|x| **x).count() + usize::from(on[3]);
-        let grid = if on[3] { steps } else { 1 };
-        for g in 0..grid {
-            // From three times the shortest tau (shorter, a Gauss-Markov
-            // bias is white noise by another name over the points) to ten
-            // times the longest.
-            let t = 3.0 * lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
-            let Some((x, cost, var_w)) = fit_terms(pts, on, t) else {
-                continue;
-            };
-            // AIC with the capped-edf chi-square (cost / 2).
-            let aic = 0.5 * cost + 2.0 * k as f64;
-            if best.is_none_or(|b| aic < b.0) {
-                best = Some((aic, x, if on[3] { t } else { 0.0 }, var_w));
-            }
-        }
-    }
-    let (_, [v_white, v_flicker, v_rrw, v_gm], t, var_w) = best?;
+    // The model: the best (AIC) with the capped weights (the model only
+    // approximates a sensor). Terms beyond white noise are named only when
+    // the data refute white noise alone: fitted at the points' own degrees
+    // of freedom (the statistic's null), some point lies from it beyond
+    // chance (`excess`). Else the curve is white noise as far as it can
+    // show: the other terms are not named (a floor is then a bound), the
+    // white noise stays the full model's (a low floor the curve cannot
+    // resolve would otherwise raise it).
+    let best = best_model(pts, 0b1111, lo, hi, FIT_EDF_CAP)?;
+    let white_only = best_model(pts, 0b0001, lo, hi, f64::INFINITY)?;
+    let best = match (excess(pts, &white_only) < TERM_Z, best.x[0] > 0.0) {
+        (false, _) => best,
+        (true, true) => Model {
+            x: [best.x[0], 0.0, 0.0, 0.0],
+            t: 0.0,
+            ..best
+        },
+        (true, false) => best_model(pts, 0b0001, lo, hi, FIT_EDF_CAP)?,
+    };
+    let Model {
+        x: [v_white, v_flicker, v_rrw, v_gm],
+        t,
+        var_w,
+        ..
+    } = best;
     let white = libm::sqrt(v_white);
     let mut fit = NoiseFit {
         white,

@@ -443,9 +443,11 @@ pub struct Checks {
     /// Gravity at the site, m/s^2 (0 disables the norm check).
     pub gravity_mps2: f64,
     /// Largest relative error of the static specific-force norm against g:
-    /// an uncalibrated MEMS accelerometer is off by its offsets (the
-    /// ICM-42688-P: +-20 mg per axis, 1 sigma), so 5 %; motion is caught by
-    /// the block tests, a tilted or accelerating base by this one.
+    /// an uncalibrated MEMS accelerometer is off by its offset and scale
+    /// (the ICM-42688-P: 20 mg and 0.5 %, 1 sigma; level, both on the
+    /// axis along g): 3.5 sigma of them, so 8 % (5 % refused one board in
+    /// 70, found by the coverage study); motion is caught by the block
+    /// tests, an accelerating base by this one.
     pub max_norm_error: f64,
 }
 
@@ -456,9 +458,24 @@ impl Default for Checks {
             static_drift_radps: 0.02f64.to_radians(),
             max_rate_error: 0.02,
             gravity_mps2: 0.0,
-            max_norm_error: 0.05,
+            max_norm_error: 0.08,
         }
     }
+}
+
+/// The sensor's white gyro noise in a phase, rad/sqrt(s) per axis: the
+/// phase's spread when still; turning, the table's own axis takes the RMS
+/// of the two across it (that axis reads the table's rate, whose ripple,
+/// a stepper's or a reversal's, spreads its samples without reaching the
+/// phase's mean against the encoder's: not the sensor's noise).
+pub fn sensor_noise(p: &Phase, axis: Axis) -> Vector3<f64> {
+    if crate::table::is_still(p.rate_radps) {
+        return p.arw;
+    }
+    let k = axis.unit::<f64>();
+    let across = p.arw - k * k.dot(&p.arw);
+    let rms = libm::sqrt(0.5 * across.norm_squared());
+    across + k * rms
 }
 
 /// A reduced phase.
@@ -622,7 +639,7 @@ pub fn solve(
                 - p.rate_radps * k_i;
             n += h * h.transpose() * w;
             rhs += h * (w * y);
-            arw2 += p.arw.get(i).map_or(0.0, |a| a * a) * p.duration_s;
+            arw2 += sensor_noise(p, axis).get(i).map_or(0.0, |a| a * a) * p.duration_s;
         }
         let total_t: f64 = phases.iter().map(|p| p.duration_s).sum();
         let arw2 = arw2 / total_t.max(1e-9);

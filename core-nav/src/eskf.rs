@@ -334,6 +334,9 @@ pub struct UpdateReport<T: Real> {
     pub used: u8,
     /// Components rejected by the gate.
     pub rejected: u8,
+    /// Which: bit `i` set when component `i` (north, east, down; or x, y,
+    /// z) was rejected.
+    pub rejected_mask: u8,
 }
 
 /// The filter: covariance, the error estimate since the last correction,
@@ -808,13 +811,16 @@ impl<T: Real> Eskf<T> {
             return Err(FilterError::BadSigma);
         }
         let mut rep = UpdateReport::default();
-        for ((h, zi), si) in rows.iter().zip(z.iter()).zip(sigma.iter()) {
+        for (i, ((h, zi), si)) in rows.iter().zip(z.iter()).zip(sigma.iter()).enumerate() {
             match self.update_scalar_opt(h, *zi, *si * *si, ws.as_deref_mut())? {
                 Some(nis) => {
                     rep.nis += nis;
                     rep.used += 1;
                 }
-                None => rep.rejected += 1,
+                None => {
+                    rep.rejected += 1;
+                    rep.rejected_mask |= 1 << i;
+                }
             }
         }
         Ok(rep)

@@ -70,9 +70,9 @@ pub fn describe(channel: usize, f: &NoiseFit) -> String {
     };
     if f.gm_sigma > 0.0 {
         s += &format!(
-            ", Gauss-Markov {:.2} {lu} over {:.0} s",
+            ", Gauss-Markov {:.2} {lu} over {} s",
             f.gm_sigma * level,
-            f.gm_tau_s
+            recording::figures::sig(f.gm_tau_s, 2)
         );
     }
     if f.rrw > 0.0 {

@@ -147,7 +147,12 @@ pub enum SimError {
         value: f64,
     },
     /// Duration or a sample rate is not positive.
-    NotPositive,
+    NotPositive {
+        /// What, as a user names it (the flag or the file's key).
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// An IMU or encoder latency outside [0, 1] s.
     Latency,
     /// The rotation scheme is out of the table's limits.
@@ -164,7 +169,9 @@ impl std::fmt::Display for SimError {
             SimError::NonFiniteEffect { name, value } => {
                 write!(f, "effect {name}: value {value} is not finite")
             }
-            SimError::NotPositive => f.write_str("duration and rates must be positive"),
+            SimError::NotPositive { what, value } => {
+                write!(f, "{what} must be positive (given {value})")
+            }
             SimError::Latency => f.write_str("latencies must be within [0, 1] s"),
             SimError::Scheme(e) => write!(f, "rotation scheme: {e}"),
         }
@@ -458,6 +465,15 @@ const MAX_JITTER_S: f64 = 0.004;
 /// Physics step, s.
 const PHYS_DT: f64 = 1e-3;
 
+/// The level a simulated recording's `meta.toml` states it knows, 1-sigma,
+/// deg: a machinist's level (0.05 mm/m a division), what a user levelling
+/// a real base could state.
+pub const STATED_LEVEL_SIGMA_DEG: f64 = 0.003;
+
+/// The heading a simulated recording's `meta.toml` states it knows,
+/// 1-sigma, deg: a base set against a surveyed line.
+pub const STATED_HEADING_SIGMA_DEG: f64 = 0.1;
+
 /// Runs `cfg` and returns the recording. `progress` is told the fraction
 /// done now and then.
 ///
@@ -465,8 +481,17 @@ const PHYS_DT: f64 = 1e-3;
 /// A scheme out of range, non-positive rates or duration, a latency above
 /// 1 s.
 pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Recording, SimError> {
-    if !(cfg.duration_s > 0.0 && cfg.imu_rate_hz > 0.0 && cfg.encoder_rate_hz > 0.0) {
-        return Err(SimError::NotPositive);
+    for (what, value) in [
+        ("the duration (--duration-s), s", cfg.duration_s),
+        (
+            "the IMU's rate (the sensor file's rate_hz), Hz",
+            cfg.imu_rate_hz,
+        ),
+        ("the encoder's rate, Hz", cfg.encoder_rate_hz),
+    ] {
+        if value.is_nan() || value <= 0.0 {
+            return Err(SimError::NotPositive { what, value });
+        }
     }
     if !(0.0..=1.0).contains(&cfg.imu.latency_s)
         || !(0.0..=1.0).contains(&cfg.imu.accel_latency_s.unwrap_or(0.0))
@@ -559,9 +584,10 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             heading_deg,
             pitch_deg,
             roll_deg,
-            // A simulated base is the truth: stated exactly.
-            heading_sigma_deg: Some(0.0),
-            level_sigma_deg: Some(0.0),
+            // The simulated base is the truth, but meta.toml states what
+            // a user could know of a real one, never an exact 0.
+            heading_sigma_deg: Some(STATED_HEADING_SIGMA_DEG),
+            level_sigma_deg: Some(STATED_LEVEL_SIGMA_DEG),
             imu_model: Some(cfg.imu.model.to_string()),
             imu_rate_hz: cfg.imu_rate_hz,
             imu_sample: recording::SampleKind::Instantaneous,

@@ -17,6 +17,7 @@
 //! recorded encoder reads.
 
 pub mod clock;
+pub mod figures;
 pub mod moving;
 pub mod plausible;
 pub mod relabel;

@@ -71,10 +71,13 @@ impl std::fmt::Display for Implausible {
         let name = channel_name(self.channel);
         let with_unit = |v: f64| {
             if self.channel < 3 {
-                format!("{v} rad/s ({:.0} deg/s)", v.to_degrees())
+                format!(
+                    "{v} rad/s ({} deg/s)",
+                    crate::figures::sig(v.to_degrees(), 3)
+                )
             } else {
                 // Standard gravity, the g of the book's units table.
-                format!("{v} m/s^2 ({:.1} g)", v / 9.806_65)
+                format!("{v} m/s^2 ({} g)", crate::figures::sig(v / 9.806_65, 3))
             }
         };
         write!(
@@ -195,22 +198,59 @@ fn stuck(x: &[f64]) -> Vec<(usize, usize)> {
     }
     let p99 = core_nav::stats::percentile(&mut lens, 99.0);
     let least = (STUCK_SAMPLES as f64).max(STUCK_OVER_P99 * p99);
+    // A run is stuck only among noise: next to a smooth, noise-free
+    // stretch (a simulation without noise, still then turning) it is the
+    // signal, not a hold.
+    let around = |s: usize, n: usize| {
+        let before = x.get(s.saturating_sub(STUCK_SAMPLES)..s).unwrap_or(&[]);
+        let after = x
+            .get(s + n..(s + n + STUCK_SAMPLES).min(x.len()))
+            .unwrap_or(&[]);
+        noisy(before) || noisy(after)
+    };
     runs.iter()
-        .filter(|(_, n)| *n as f64 >= least)
+        .filter(|(s, n)| *n as f64 >= least && around(*s, *n))
         .flat_map(|&(s, n)| (s..s + n).map(move |k| (k, n)))
         .collect()
 }
 
+/// Whether `x` scatters as noise does: its second differences as large as
+/// its first on average (white noise: sqrt(3) times; a smooth signal
+/// sampled fast: far smaller), with at least one change.
+fn noisy(x: &[f64]) -> bool {
+    let mean_abs = |d: &mut dyn Iterator<Item = f64>| {
+        let (s, n) = d.fold((0.0, 0usize), |(s, n), v| (s + v.abs(), n + 1));
+        s / n.max(1) as f64
+    };
+    let d1 = mean_abs(&mut x.windows(2).map(|w| w[1] - w[0]));
+    let d2 = mean_abs(&mut x.windows(3).map(|w| w[2] - 2.0 * w[1] + w[0]));
+    d1 > 0.0 && d2 > NOISE_D2_OVER_D1 * d1
+}
+
+/// The least ratio of mean absolute second to first difference a noisy
+/// stretch shows (white noise's is sqrt(3); a table turning at 30 deg/s
+/// sampled at 100 Hz: 0.005).
+const NOISE_D2_OVER_D1: f64 = 0.3;
+
 /// `rec` with each implausible reading replaced by the channel's last
-/// plausible one before it (the sample kept, so time stays even), and how
-/// many readings were replaced.
+/// plausible one before it (the first after it when none precedes; kept
+/// when the channel has none) (the sample kept, so time stays even), and
+/// how many readings were replaced.
 pub fn excluded(rec: &Recording, bad: &[Implausible]) -> (Recording, usize) {
     let mut out = rec.clone();
     for b in bad {
         let prev = (0..b.row)
             .rev()
             .find(|k| !bad.iter().any(|o| o.row == *k && o.channel == b.channel));
-        let v = prev.map_or(f64::NAN, |k| value(&rec.imu[k], b.channel));
+        // None before it (the run starts the recording): the first one
+        // after; none at all: the reading as it is (never a NaN).
+        let next = || {
+            (b.row + 1..rec.imu.len())
+                .find(|k| !bad.iter().any(|o| o.row == *k && o.channel == b.channel))
+        };
+        let v = prev
+            .or_else(next)
+            .map_or(b.value, |k| value(&rec.imu[k], b.channel));
         if let Some(r) = out.imu.get_mut(b.row) {
             match b.channel {
                 0..=2 => r.gyro_radps[b.channel] = v,
@@ -375,6 +415,31 @@ mod tests {
         assert!(bad.iter().all(|b| b.kind == Kind::Stuck(150)));
         let ideal = rec_with(|_| 0.5, 1000);
         assert!(check(&ideal, None).is_empty());
+    }
+
+    #[test]
+    fn a_noise_free_still_start_then_turning_is_not_stuck() {
+        // `simulate --ideal`: 1200 equal readings still, then the table
+        // turning (a smooth sinusoid): the signal, not a hold.
+        let ideal = |k: usize| match k < 1200 {
+            true => 7.29e-5,
+            false => 7.29e-5 + 0.5 * ((k - 1200) as f64 * 0.005).sin(),
+        };
+        let r = rec_with(ideal, 5000);
+        let bad: Vec<_> = check(&r, None)
+            .into_iter()
+            .filter(|b| b.channel == 2)
+            .collect();
+        assert!(bad.is_empty(), "{:?}", bad.first());
+        // A hold at the very start of a noisy channel is stuck, and its
+        // replacement (no reading before it) is the first after, never NaN.
+        let noise = |k: usize| ((k * 7919) % 101) as f64 * 1e-4;
+        let r = rec_with(|k| if k < 150 { 0.25 } else { noise(k) }, 1000);
+        let bad = check(&r, None);
+        assert_eq!(bad.len(), 150, "{:?}", bad.first());
+        let (fixed, _) = excluded(&r, &bad);
+        assert!(fixed.imu.iter().all(|x| x.gyro_radps[2].is_finite()));
+        assert_eq!(fixed.imu[0].gyro_radps[2], noise(150));
     }
 
     #[test]

@@ -254,8 +254,44 @@ pub struct Picked {
     pub level_from_meta: bool,
     /// The heading is `meta.toml`'s (else the alignment's).
     pub heading_from_meta: bool,
+    /// How many combined sigmas the alignment's level lies from
+    /// `meta.toml`'s stated one when more than [`REFUTED_SIGMAS`] (the
+    /// statement refuted: the alignment's is taken, said aloud), else
+    /// `None` (agreeing, or a sigma unknown: nothing to weigh).
+    pub level_refuted_sigmas: Option<f64>,
+    /// The same for the heading (when the alignment gyrocompassed).
+    pub heading_refuted_sigmas: Option<f64>,
     /// Why, in words.
     pub why: String,
+}
+
+/// A stated attitude this many combined sigmas from the alignment's is
+/// refuted by the data (a 3-sigma test: a true statement fails it 0.3 %
+/// of the time).
+pub const REFUTED_SIGMAS: f64 = 3.0;
+
+/// How many combined sigmas apart `stated` and `aligned` angles are (the
+/// largest over the components), when more than [`REFUTED_SIGMAS`] and
+/// both sigmas are known.
+fn refuted(stated: &[f64], aligned: &[f64], s_stated: Option<f64>, s_aligned: f64) -> Option<f64> {
+    let s = s_stated?.hypot(s_aligned);
+    let d = stated
+        .iter()
+        .zip(aligned)
+        .map(|(a, b)| wrap_deg(a - b).abs())
+        .fold(0.0, f64::max);
+    let k = d / s;
+    (s_aligned.is_finite() && k > REFUTED_SIGMAS).then_some(k)
+}
+
+/// An angle difference in (-180, 180] deg.
+pub fn wrap_deg(d: f64) -> f64 {
+    let w = d.rem_euclid(360.0);
+    if w > 180.0 {
+        w - 360.0
+    } else {
+        w
+    }
 }
 
 /// The better source of each part of the start attitude: `meta.toml`'s
@@ -263,33 +299,63 @@ pub struct Picked {
 /// `heading_sigma_deg`) is smaller than the alignment's own (or the
 /// alignment's is unknown), else the alignment's. A stated attitude
 /// without a sigma is not preferred (its sigma is unknown): the alignment
-/// stands, as before, and `--attitude-from-meta` forces `meta.toml`'s.
+/// stands, as before, and `--attitude-from-meta` forces `meta.toml`'s. A
+/// stated attitude the alignment refutes (more than [`REFUTED_SIGMAS`]
+/// combined sigmas apart) is not taken, and the words say so.
 pub fn pick(al: &StaticAlignment, meta: &recording::Meta) -> Picked {
     let better = |stated: Option<f64>, aligned: f64| match stated {
         // An unknown (NaN) alignment sigma loses to any stated one.
         Some(s) => aligned.is_nan() || aligned > s,
         None => false,
     };
-    let level = better(meta.level_sigma_deg, al.sigma_deg[0].max(al.sigma_deg[1]));
-    // A heading the alignment took from meta.toml is meta.toml's anyway.
-    let heading = !al.gyrocompassed || better(meta.heading_sigma_deg, al.sigma_deg[2]);
     let [r, p, h] = al.euler_deg;
+    let level_sigma = al.sigma_deg[0].max(al.sigma_deg[1]);
+    let level_refuted = refuted(
+        &[meta.roll_deg, meta.pitch_deg],
+        &[r, p],
+        meta.level_sigma_deg,
+        level_sigma,
+    );
+    let heading_refuted = al
+        .gyrocompassed
+        .then(|| {
+            refuted(
+                &[meta.heading_deg],
+                &[h],
+                meta.heading_sigma_deg,
+                al.sigma_deg[2],
+            )
+        })
+        .flatten();
+    let level = better(meta.level_sigma_deg, level_sigma) && level_refuted.is_none();
+    // A heading the alignment took from meta.toml is meta.toml's anyway.
+    let heading = !al.gyrocompassed
+        || (better(meta.heading_sigma_deg, al.sigma_deg[2]) && heading_refuted.is_none());
     let euler_deg = [
         if level { meta.roll_deg } else { r },
         if level { meta.pitch_deg } else { p },
         if heading { meta.heading_deg } else { h },
     ];
-    let say = |what: &str, from_meta: bool, stated: Option<f64>, aligned: f64| match (
-        from_meta, stated,
-    ) {
-        (true, Some(s)) => {
-            format!("{what} meta.toml's (+- {s} deg stated, the alignment's +- {aligned:.3})")
+    let known = |s: f64| match s.is_finite() {
+        true => format!("+- {s:.3}"),
+        false => "sigma unknown".into(),
+    };
+    let say = |what: &str, from_meta: bool, stated: Option<f64>, aligned: f64, off: Option<f64>| {
+        match (from_meta, stated, off) {
+            (false, Some(s), Some(k)) => format!(
+                "{what} the alignment's ({} deg): meta.toml's (+- {s} deg stated) is {k:.0} sigma from it, refuted by the data (--attitude-from-meta forces it)",
+                known(aligned)
+            ),
+            (true, Some(s), _) => {
+                format!("{what} meta.toml's (+- {s} deg stated, the alignment's {})", known(aligned))
+            }
+            (true, None, _) => format!("{what} meta.toml's"),
+            (false, Some(s), None) => format!(
+                "{what} the alignment's ({} deg, meta.toml's +- {s} stated)",
+                known(aligned)
+            ),
+            (false, None, _) => format!("{what} the alignment's (meta.toml states no sigma)"),
         }
-        (true, None) => format!("{what} meta.toml's"),
-        (false, Some(s)) => {
-            format!("{what} the alignment's (+- {aligned:.3} deg, meta.toml's +- {s} stated)")
-        }
-        (false, None) => format!("{what} the alignment's (meta.toml states no sigma)"),
     };
     let why = format!(
         "start attitude: {}; {}",
@@ -297,14 +363,71 @@ pub fn pick(al: &StaticAlignment, meta: &recording::Meta) -> Picked {
             "level",
             level,
             meta.level_sigma_deg,
-            al.sigma_deg[0].max(al.sigma_deg[1])
+            level_sigma,
+            level_refuted
         ),
-        say("heading", heading, meta.heading_sigma_deg, al.sigma_deg[2])
+        say(
+            "heading",
+            heading,
+            meta.heading_sigma_deg,
+            al.sigma_deg[2],
+            heading_refuted
+        )
     );
     Picked {
         euler_deg,
         level_from_meta: level,
         heading_from_meta: heading,
+        level_refuted_sigmas: level_refuted,
+        heading_refuted_sigmas: heading_refuted,
         why,
+    }
+}
+
+#[cfg(test)]
+mod pick_tests {
+    use super::*;
+
+    fn aligned(roll: f64, pitch: f64, sigma: f64) -> StaticAlignment {
+        StaticAlignment {
+            window_s: [0.0, 60.0],
+            turns: 0.0,
+            swing_deg: 0.0,
+            euler_deg: [roll, pitch, 0.0],
+            sigma_deg: [sigma, sigma, f64::NAN],
+            gyrocompassed: false,
+            heading_note: None,
+        }
+    }
+
+    #[test]
+    fn a_stated_level_300_sigma_from_the_alignment_is_refuted_aloud() {
+        // The new user's case: meta.toml states a level base to 0.0 deg,
+        // the alignment finds roll 0.297 +- 0.001, pitch -0.199 +- 0.001.
+        let meta = recording::Meta {
+            level_sigma_deg: Some(0.0),
+            ..recording::Meta::default()
+        };
+        let p = pick(&aligned(0.297, -0.199, 0.001), &meta);
+        assert!(!p.level_from_meta, "{p:?}");
+        assert_eq!(&p.euler_deg[..2], &[0.297, -0.199]);
+        let k = p.level_refuted_sigmas.unwrap();
+        assert!((k - 297.0).abs() < 1.0, "{k}");
+        assert!(p.why.contains("297 sigma from it, refuted"), "{}", p.why);
+        // Agreeing within 3 sigma: the stated, better one stands, quietly.
+        let p = pick(&aligned(0.002, -0.001, 0.001), &meta);
+        assert!(
+            p.level_from_meta && p.level_refuted_sigmas.is_none(),
+            "{p:?}"
+        );
+        // An alignment whose sigma is unknown cannot refute anything, and
+        // its sigma is said to be unknown, never NaN.
+        let p = pick(&aligned(0.297, -0.199, f64::NAN), &meta);
+        assert!(p.level_from_meta && p.level_refuted_sigmas.is_none());
+        assert!(
+            !p.why.contains("NaN") && p.why.contains("sigma unknown"),
+            "{}",
+            p.why
+        );
     }
 }

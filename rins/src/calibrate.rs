@@ -450,6 +450,17 @@ pub fn from_json(v: &Value) -> Result<GyroCalibration> {
     })
 }
 
+/// A phase's white gyro noise in words (`core_nav::calib::sensor_noise`:
+/// still, all three axes; turning, the two across the table's).
+fn phase_arw(p: &core_nav::calib::Phase, axis: core_nav::table::Axis) -> String {
+    let a = core_nav::calib::sensor_noise(p, axis);
+    let arw = (a.norm() / 3f64.sqrt()).to_degrees() * 60.0;
+    match core_nav::table::is_still(p.rate_radps) {
+        true => format!("ARW {arw:.3} deg/sqrt(h)"),
+        false => format!("ARW {arw:.3} deg/sqrt(h) (the axes across the table's)"),
+    }
+}
+
 /// Text report.
 pub fn report(r: &Calibration) -> String {
     let g = &r.gyro;
@@ -461,11 +472,11 @@ pub fn report(r: &Calibration) -> String {
     );
     for (seg, p) in &r.phases {
         s += &format!(
-            "  phase {:7.1}-{:7.1} s  rate {:8.3} deg/s  ARW {:.3} deg/sqrt(h)\n",
+            "  phase {:7.1}-{:7.1} s  rate {:8.3} deg/s  {}\n",
             seg.t0_s,
             seg.t1_s,
             p.rate_radps.to_degrees(),
-            p.arw.norm().to_degrees() * 60.0 / 3f64.sqrt()
+            phase_arw(p, g.axis)
         );
     }
     let (q_solved, a_solved) = solved(g);

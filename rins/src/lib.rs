@@ -10,6 +10,7 @@ pub mod aided;
 pub mod align;
 pub mod allan;
 pub mod calibrate;
+pub mod coverage;
 pub mod demo;
 pub mod diagnose;
 pub mod import;

@@ -204,12 +204,9 @@ impl Written {
             }
             for (ch, x) in all.iter().enumerate() {
                 self.notes.push(format!(
-                    "{}: white {:.4e}, bias instability B {:.4e}{}, rrw {:.4e} (SI)",
+                    "{}: {} (SI)",
                     crate::allan::CHANNELS.get(k + ch).copied().unwrap_or("?"),
-                    x.white,
-                    x.bias_instability,
-                    if x.floor_seen { "" } else { " (a bound)" },
-                    x.rrw
+                    fit_note(x)
                 ));
             }
         }
@@ -327,4 +324,26 @@ impl Written {
             }
         }
     }
+}
+
+/// One channel's fit in a comment's words: each term its value or "not
+/// measured" (never a zero for a term the fit left out), the bias
+/// instability's bound said as one.
+fn fit_note(x: &NoiseFit) -> String {
+    let value = |v: f64| match v > 0.0 && v.is_finite() {
+        true => format!("{v:.4e}"),
+        false => "not measured".into(),
+    };
+    let b = match x.floor_seen {
+        true => value(x.bias_instability),
+        false if x.bias_instability > 0.0 => {
+            format!("not measured (below {:.4e})", x.bias_instability)
+        }
+        false => "not measured".into(),
+    };
+    format!(
+        "white {}, bias instability B {b}, rrw {}",
+        value(x.white),
+        value(x.rrw)
+    )
 }

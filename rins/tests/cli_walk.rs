@@ -923,6 +923,18 @@ fn walk(w: &Walk) {
         n += 1;
         let out = scratch.join(n.to_string());
         let r = result(exec, args, files, &out).map(|o| (o, out));
+        if let Some(((_, text, _), out)) = &r {
+            let mut seen = unmeasured(text);
+            for f in written_toml(out) {
+                seen.extend(unmeasured(&f));
+            }
+            assert!(
+                seen.is_empty(),
+                "rins {} {args:?}: a figure not measured printed as a number:\n{}",
+                w.cmd.join(" "),
+                seen.join("\n")
+            );
+        }
         cache.insert(key, r.clone());
         r
     };
@@ -967,6 +979,70 @@ fn walk(w: &Walk) {
         }
     }
     let _ = std::fs::remove_dir_all(&scratch);
+}
+
+/// The lines of `text` that print a figure not measured as a number: a
+/// NaN or inf, a zero in exponent form (`0.0000e0`: a term left out), a
+/// time of "0 s" a correlation was fitted over, a rate rounded to "(0
+/// deg/s)". Unknown is said in words.
+fn unmeasured(text: &str) -> Vec<String> {
+    let word = |l: &str, w: &str| {
+        l.match_indices(w).any(|(i, _)| {
+            let before = l[..i].chars().next_back();
+            let after = l[i + w.len()..].chars().next();
+            !before.is_some_and(char::is_alphanumeric) && !after.is_some_and(char::is_alphanumeric)
+        })
+    };
+    text.lines()
+        .filter(|l| {
+            word(l, "NaN")
+                || word(l, "inf")
+                || word(l, "-inf")
+                || l.contains("0.0000e0")
+                || l.contains(" 0e0")
+                || l.contains("over 0 s")
+                || l.contains("(0 deg/s)")
+        })
+        .map(|l| l.chars().take(200).collect())
+        .collect()
+}
+
+/// The text of the `.toml` files a run wrote under `out` (sensor files:
+/// their comments say what was measured).
+fn written_toml(out: &Path) -> Vec<String> {
+    let mut found = vec![];
+    let mut dirs = vec![out.to_path_buf()];
+    while let Some(d) = dirs.pop() {
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                dirs.push(p);
+            } else if p.extension().is_some_and(|x| x == "toml") {
+                found.extend(std::fs::read_to_string(&p).ok());
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn the_scan_for_unmeasured_figures_finds_what_the_issue_found() {
+    // The lines a new user found (issue 46), and their honest forms.
+    for bad in [
+        "# gyro_x_radps: white 8.5e-5, bias instability B 1.2e-5, rrw 0.0000e0 (SI)",
+        "level meta.toml's (+- 0.1 deg stated, the alignment's +- NaN)",
+        "white 84.9 ug/sqrt(Hz), Gauss-Markov 25.15 ug over 0 s",
+        "imu.csv data row 3 (t = 0.02 s): gyro_x_radps = 0.0000628 rad/s (0 deg/s), stuck",
+        "heading inf deg",
+    ] {
+        assert_eq!(unmeasured(bad).len(), 1, "{bad}");
+    }
+    for good in [
+        "rrw not measured, information: infinite span, NaNo",
+        "Gauss-Markov 25.15 ug over 0.4 s; rate 6.28e-5 deg/s (0.0036 deg/s)",
+    ] {
+        assert!(unmeasured(good).is_empty(), "{good}");
+    }
 }
 
 /// Checks one run against a refusal, a file written or words printed

@@ -94,8 +94,8 @@ fn the_filter_is_honest_on_a_city_drive_with_outages() {
     let s = aided::summary(&rec, &run);
     print!("{}", s.text());
     assert!(
-        (0.7..=1.3).contains(&s.nis_mean_per_dof),
-        "NIS {}",
+        (0.7..=1.3).contains(&s.nis_mean_per_dof.unwrap()),
+        "NIS {:?}",
         s.nis_mean_per_dof
     );
     assert!(s.nees_in_95.unwrap() >= 0.8);

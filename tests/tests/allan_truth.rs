@@ -186,3 +186,57 @@ fn diagnose_prints_the_figures_allan_prints() {
         );
     }
 }
+
+/// The terms beyond white noise a fit names: a floor it calls seen, a
+/// rate random walk, a Gauss-Markov bias.
+fn named(f: &core_nav::allan::NoiseFit) -> Vec<&'static str> {
+    let mut v = vec![];
+    if f.floor_seen {
+        v.push("bias instability");
+    }
+    if f.rrw > 0.0 {
+        v.push("rate random walk");
+    }
+    if f.gm_sigma > 0.0 {
+        v.push("Gauss-Markov");
+    }
+    v
+}
+
+#[test]
+fn white_noise_alone_names_no_other_term() {
+    // The null case: six channels of white noise and nothing else, 450 s
+    // (a new user's `simulate --scheme still --duration-s 450` with the
+    // other terms unknown) over 20 seeds: 120 curves, each of whose last
+    // points has 2-5 degrees of freedom. No bias instability, rate random
+    // walk or Gauss-Markov term may be named; the bias instability is a
+    // bound ("below"), said so by describe.
+    let white = truths(false).map(|t| Truth { rrw: 0.0, ..t });
+    let mut found = vec![];
+    for seed in 0..20 {
+        let rec = recording(white, 450.0 / 3600.0, 1000 + seed);
+        for (c, a) in rins::allan::compute(&rec).iter().enumerate() {
+            let n = named(&a.fit);
+            let text = rins::allan::describe(c, &a.fit);
+            if !n.is_empty() || !text.contains("bias instability not measured") {
+                found.push(format!("seed {seed} {}: {n:?}: {text} {:?}", a.name, a.fit));
+            }
+        }
+    }
+    assert!(found.is_empty(), "{found:#?}");
+}
+
+#[test]
+fn a_gauss_markov_bias_of_the_size_mems_have_is_still_found() {
+    // The other side of the null case: the significance a term needs must
+    // not hide one that is there. An hour with a 10 deg/h, 30 s
+    // Gauss-Markov bias (gyro y) and 0.5 mg, 30 s (accel y): its bump
+    // stands tens of sigma above the white noise's line at 30-100 s.
+    let truth = truths(true);
+    let rec = recording(truth, 1.0, 7);
+    let chs = rins::allan::compute(&rec);
+    for c in [1, 4] {
+        let n = named(&chs[c].fit);
+        assert!(!n.is_empty(), "{}: {:?}", chs[c].name, chs[c].fit);
+    }
+}

@@ -48,8 +48,9 @@ pub struct AidedOptions {
     pub gate_sigma: f64,
     /// Mechanization and filter in f32, as on the board (else f64).
     pub f32: bool,
-    /// GNSS outages cut in: (start s, length s); the fixes inside are
-    /// withheld from the filter (and kept as the reference).
+    /// GNSS outages cut in: (start s, length s) on the IMU's clock; the
+    /// fixes inside (at their stamps plus `time_offset_s`) are withheld
+    /// from the filter (and kept as the reference).
     pub outages: Vec<(f64, f64)>,
     /// The least 1-sigma a fix is taken with, by solution type.
     pub floor: ReceiverFloor,
@@ -154,8 +155,11 @@ pub struct AidedRow {
     /// rotation error about north, east and down taken through the Euler
     /// angles' Jacobian: `core_nav::attitude::euler_sigma`).
     pub sigma_att_deg: [f64; 3],
-    /// A GNSS fix was used at this sample.
+    /// A GNSS fix was processed at this sample (taken or refused).
     pub fix: bool,
+    /// The fix processed here had its horizontal position taken: the gate
+    /// rejected neither north nor east.
+    pub fix_taken: bool,
     /// The zero-velocity detector said still (evaluated every tenth
     /// sample; the verdict holds in between).
     pub still: bool,
@@ -210,20 +214,20 @@ pub struct AidedRun {
     /// The vehicle was moving at the start: its velocity from the fixes
     /// (and no zero-velocity updates).
     pub moving_start: Option<align::MovingStart>,
+    /// The receiver's clock less the IMU's, s, the filter was given (the
+    /// fixes' stamps plus it are their times on the IMU's clock): the
+    /// summary measures against the fixes at those times.
+    pub time_offset_s: f64,
 }
 
-/// The fixes the filter gets: those outside the outages cut in, each at
-/// its time on the IMU's clock (shifted by the time offset), its sigmas
+/// The fixes the filter gets: each at its time on the IMU's clock
+/// (shifted by the time offset), those outside the outages cut in (times
+/// on the IMU's clock, as the trajectory's), its sigmas
 /// raised to its solution type's floor, without velocity when the options
 /// say so.
 fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
     fixes
         .iter()
-        .filter(|f| {
-            !opt.outages
-                .iter()
-                .any(|(a, l)| f.t_s >= *a && f.t_s < a + l)
-        })
         .map(|f| {
             let mut f = opt.floor.apply(f);
             f.t_s += opt.time_offset_s;
@@ -232,6 +236,11 @@ fn prepared_fixes(fixes: &[GnssRow], opt: &AidedOptions) -> Vec<GnssRow> {
                 f.sigma_vel_mps = f64::NAN;
             }
             f
+        })
+        .filter(|f| {
+            !opt.outages
+                .iter()
+                .any(|(a, l)| f.t_s >= *a && f.t_s < a + l)
         })
         .collect()
 }
@@ -412,6 +421,7 @@ fn navigate_t<T: Real>(
     let mut run = AidedRun {
         aligned,
         moving_start: moving,
+        time_offset_s: opt.time_offset_s,
         ..AidedRun::default()
     };
     let truth = mv.truth.as_deref().unwrap_or(&[]);
@@ -489,6 +499,7 @@ fn navigate_t<T: Real>(
             sigma_v_mps: f64s(sol.sigma_v_mps),
             sigma_att_deg: f64s(sol.sigma_euler_rad).map(f64::to_degrees),
             fix: step.fix.is_some(),
+            fix_taken: step.fix_horizontal_taken,
             still: step.still,
             zupt: step.zupt,
         });

@@ -15,7 +15,7 @@ const STEP: usize = 50;
 
 /// The antenna fixes of `rec` as (east, north) m from its site point.
 pub fn fixes_en(rec: &Recording) -> Vec<(f64, f64)> {
-    super::summary::receiver_reference(rec)
+    super::summary::receiver_reference(rec, 0.0)
         .iter()
         .map(|r| (r.p_n_m[1], r.p_n_m[0]))
         .collect()
@@ -91,7 +91,7 @@ fn axis_error(rec: &Recording, run: &AidedRun, k: usize) -> Series {
     let at = |r: &AidedRow, p: [f64; 3]| (r.traj.t_s, r.traj.ned_m[k] - p[k], 3.0 * r.sigma_p_m[k]);
     let pts: Vec<(f64, f64, f64)> = if truth.is_empty() {
         let rows = &run.rows;
-        super::summary::receiver_reference(rec)
+        super::summary::receiver_reference(rec, run.time_offset_s)
             .iter()
             .filter_map(|f| {
                 let i = rows.partition_point(|r| r.traj.t_s < f.t_s);

@@ -32,9 +32,10 @@ pub struct AidedSummary {
     pub outages: Vec<OutageError>,
     /// Mean NIS per fix component and the fraction of fixes inside the
     /// two-sided 95 % chi-square bounds of their components.
-    pub nis_mean_per_dof: f64,
+    /// `None` when no fix was used (never a 0 for a figure not measured).
+    pub nis_mean_per_dof: Option<f64>,
     /// See `nis_mean_per_dof`.
-    pub nis_in_95: f64,
+    pub nis_in_95: Option<f64>,
     /// Mean NEES per degree of freedom and the fraction inside its 95 %
     /// bounds (5 dof), with truth.
     pub nees_mean_per_dof: Option<f64>,
@@ -94,8 +95,9 @@ pub struct ReinitError {
     pub t_s: f64,
     /// The horizontal jump it made, m.
     pub jump_m: f64,
-    /// The outage that ended last before it: start s, length s (`None`:
-    /// none did; the filter was lost with fixes arriving).
+    /// The outage that ended last before it, when no fix's horizontal
+    /// position was taken in between: start s, length s (`None`: the
+    /// filter was lost with fixes arriving).
     pub after_outage: Option<[f64; 2]>,
 }
 
@@ -128,8 +130,13 @@ pub struct OutageError {
 
 /// The receiver's solution as a reference: each fix's position as offsets
 /// from the site (NED, m) and its velocity (the antenna's, a lever arm
-/// from the base's point; attitude unknown).
-pub(crate) fn receiver_reference(rec: &Recording) -> Vec<recording::moving::TruthRow> {
+/// from the base's point; attitude unknown), at its time on the IMU's
+/// clock: its stamp plus `time_offset_s` (the receiver's clock less the
+/// IMU's, as the filter was given it).
+pub(crate) fn receiver_reference(
+    rec: &Recording,
+    time_offset_s: f64,
+) -> Vec<recording::moving::TruthRow> {
     let Some(mv) = rec.moving.as_ref() else {
         return vec![];
     };
@@ -146,13 +153,30 @@ pub(crate) fn receiver_reference(rec: &Recording) -> Vec<recording::moving::Trut
                 f.lat_deg, f.lon_deg, f.height_m,
             ));
             recording::moving::TruthRow {
-                t_s: f.t_s,
+                t_s: f.t_s + time_offset_s,
                 p_n_m: [d.x, d.y, d.z],
                 v_n_mps: f.v_n_mps,
                 euler_deg: [f64::NAN; 3],
             }
         })
         .collect()
+}
+
+/// The outage whose error a re-initialisation at `t_s` took out: the last
+/// one that ended before it, when no fix was taken between its end and
+/// `t_s` (a fix the gate passed means the filter had come back: a later
+/// re-initialisation is the filter lost again, with fixes arriving).
+fn outage_before(outages: &[OutageError], run: &AidedRun, t_s: f64) -> Option<[f64; 2]> {
+    let o = outages
+        .iter()
+        .filter(|o| o.start_s + o.len_s <= t_s)
+        .max_by(|a, b| a.start_s.total_cmp(&b.start_s))?;
+    let end = o.start_s + o.len_s;
+    let taken = run
+        .rows
+        .iter()
+        .any(|r| r.fix_taken && r.traj.t_s >= end && r.traj.t_s < t_s);
+    (!taken).then_some([o.start_s, o.len_s])
 }
 
 /// Two-sided 95 % bounds of a chi-square with `k` degrees of freedom
@@ -174,7 +198,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     // No truth (a real log): the receiver's own solution, every fix (those
     // withheld in the outages cut in among them), is the reference.
     let from_fixes = match given.is_empty() {
-        true => receiver_reference(rec),
+        true => receiver_reference(rec, run.time_offset_s),
         false => vec![],
     };
     let truth = if given.is_empty() {
@@ -301,12 +325,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         .map(|&(t_s, jump_m)| ReinitError {
             t_s,
             jump_m,
-            after_outage: s
-                .outages
-                .iter()
-                .filter(|o| o.start_s + o.len_s <= t_s)
-                .map(|o| [o.start_s, o.len_s])
-                .reduce(|a, b| if b[0] > a[0] { b } else { a }),
+            after_outage: outage_before(&s.outages, run, t_s),
         })
         .collect();
     // The recovery stretches: an outage's end to its re-initialisation.
@@ -338,16 +357,17 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
     if !used.is_empty() {
         let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
-        s.nis_mean_per_dof = used.iter().map(|x| x.1).sum::<f64>() / dof;
-        s.nis_in_95 = used
-            .iter()
-            .filter(|x| {
-                let (lo, hi) = chi2_95_bounds(x.2 as usize);
-                let v = x.1 / f64::from(x.2);
-                v >= lo && v <= hi
-            })
-            .count() as f64
-            / used.len() as f64;
+        s.nis_mean_per_dof = Some(used.iter().map(|x| x.1).sum::<f64>() / dof);
+        s.nis_in_95 = Some(
+            used.iter()
+                .filter(|x| {
+                    let (lo, hi) = chi2_95_bounds(x.2 as usize);
+                    let v = x.1 / f64::from(x.2);
+                    v >= lo && v <= hi
+                })
+                .count() as f64
+                / used.len() as f64,
+        );
     }
     if !run.nees_attitude.is_empty() {
         let n = run.nees_attitude.len() as f64;
@@ -439,11 +459,13 @@ impl AidedSummary {
                 );
             }
         }
-        o += &format!(
-            "NIS per component {:.2} ({:.0} % of fixes inside their 95 % bounds)\n",
-            self.nis_mean_per_dof,
-            100.0 * self.nis_in_95
-        );
+        o += &match (self.nis_mean_per_dof, self.nis_in_95) {
+            (Some(m), Some(f)) => format!(
+                "NIS per component {m:.2} ({:.0} % of fixes inside their 95 % bounds)\n",
+                100.0 * f
+            ),
+            _ => "NIS not measured: no fix was used\n".into(),
+        };
         if let (Some(m), Some(f)) = (self.nees_mean_per_dof, self.nees_in_95) {
             o += &format!(
                 "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds; position, velocity, attitude){}\n",

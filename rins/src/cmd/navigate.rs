@@ -288,6 +288,9 @@ pub fn run(a: &Args) -> Result<()> {
         Some(al) => {
             print!("{}", alignment_text(al, meta_rph));
             if let Some(p) = &picked {
+                if p.level_refuted_sigmas.is_some() || p.heading_refuted_sigmas.is_some() {
+                    println!("warning: meta.toml's stated attitude is refuted by the alignment:");
+                }
                 println!("{}", p.why);
             }
         }

@@ -21,13 +21,19 @@ pub struct Args {
     #[arg(long)]
     pub small: bool,
     /// Only these tables (comma-separated: reproduce, outages, study,
-    /// study-real-noise); default: all.
+    /// study-real-noise, coverage); default: all.
     #[arg(long, value_delimiter = ',')]
     pub only: Option<Vec<String>>,
 }
 
 /// The tables, by the names `--only` takes.
-const TABLES: [&str; 4] = ["reproduce", "outages", "study", "study-real-noise"];
+const TABLES: [&str; 5] = [
+    "reproduce",
+    "outages",
+    "study",
+    "study-real-noise",
+    "coverage",
+];
 
 /// Runs `rins results`.
 pub fn run(a: &Args) -> Result<()> {
@@ -73,6 +79,13 @@ pub fn run(a: &Args) -> Result<()> {
         let (cmd, body) = study(&["nav440", "mtig"], None, &set)?;
         write("study.md", cmd, body)?;
     }
+    if want("coverage") {
+        write(
+            "coverage.md",
+            "rins results --only coverage".into(),
+            coverage()?,
+        )?;
+    }
     if !want("study-real-noise") {
         return Ok(());
     }
@@ -87,6 +100,21 @@ pub fn run(a: &Args) -> Result<()> {
         ),
     }
     Ok(())
+}
+
+/// The coverage study over its seeds (the same in every setting: the
+/// whole study takes seconds).
+fn coverage() -> Result<String> {
+    let seeds: Vec<u64> = (0..rins::coverage::SEEDS).collect();
+    let pb = progress_bar("coverage");
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let total = 3 * seeds.len() as u64;
+    let rows = rins::coverage::study(&seeds, &|| {
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        pb.set_position(n * 1000 / total);
+    })?;
+    pb.finish_and_clear();
+    Ok(rins::coverage::table(&rows))
 }
 
 fn reproduce(sensor: &str, set: &Setting) -> Result<(String, String)> {

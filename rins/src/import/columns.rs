@@ -284,17 +284,20 @@ impl ColumnMap {
                 }
                 bail!("{what}:{line}: {} fields, expected {w}", fields.len());
             }
-            let get = |c: &Col| -> Result<f64> {
-                let i = match c {
-                    Col::Index(i) => *i,
-                    Col::Name(n) => names
-                        .iter()
-                        .position(|x| x == n)
-                        .ok_or_else(|| anyhow!("{what}: no column named {n:?} in the header"))?,
+            // `role`: the column map's key for it (e.g. "accel z").
+            let get = |c: &Col, role: &str| -> Result<f64> {
+                let (i, named) = match c {
+                    Col::Index(i) => (*i, String::new()),
+                    Col::Name(n) => (
+                        names.iter().position(|x| x == n).ok_or_else(|| {
+                            anyhow!("{what}: no column named {n:?} in the header ({role})")
+                        })?,
+                        format!(" {n:?}"),
+                    ),
                 };
                 let s = fields.get(i).ok_or_else(|| {
                     anyhow!(
-                        "{what}:{line}: no column {i} (the row has {} fields)",
+                        "{what}:{line}: no column {i}{named} ({role} in the column map; the row has {} fields)",
                         fields.len()
                     )
                 })?;
@@ -302,16 +305,23 @@ impl ColumnMap {
                     .ok()
                     .filter(|x| x.is_finite())
                     .ok_or_else(|| {
-                        anyhow!("{what}:{line}: column {i} is {s:?}, not a finite number")
+                        anyhow!("{what}:{line}: column {i}{named} ({role} in the column map) is {s:?}, not a finite number")
                     })
             };
             let stamp = match &self.time {
-                Some(c) => get(c)? * self.time_s,
+                Some(c) => get(c, "time")? * self.time_s,
                 None => (out.rows.len()) as f64 / self.rate_hz,
             };
             let mut v = [0.0; 6];
-            for (slot, c) in v.iter_mut().zip(self.gyro.iter().chain(&self.accel)) {
-                *slot = get(c)?;
+            let roles = [
+                "gyro x", "gyro y", "gyro z", "accel x", "accel y", "accel z",
+            ];
+            for ((slot, c), role) in v
+                .iter_mut()
+                .zip(self.gyro.iter().chain(&self.accel))
+                .zip(roles)
+            {
+                *slot = get(c, role)?;
             }
             if let Some(&(prev, _, _)) = out.rows.last() {
                 if stamp <= prev {
@@ -396,6 +406,11 @@ mod tests {
             e.to_string().contains("imu.csv:2") && e.to_string().contains("\"x\""),
             "{e}"
         );
+        // The column's role in the map is named, not only its index.
+        let role = ["gyro", "accel"].iter().any(|t| {
+            e.to_string().contains(&format!("{t} ")) && e.to_string().contains("in the column map")
+        });
+        assert!(role, "{e}");
         let e = m
             .parse_csv("0,0,1,0,0,0,5\n0,0,1,0,0,1,4\n", "imu.csv")
             .unwrap_err();

@@ -1,0 +1,238 @@
+//! `rins results --only coverage`: each printed estimate against its truth
+//! over many seeded simulations (our simulator's runs; the truth is the
+//! realised sensor's and the base's): how often the truth lies inside the
+//! printed 3 sigma, and how the printed sigma compares with the errors'
+//! actual spread (a sigma always huge is no sigma).
+
+use crate::calibrate::{calibrate, Method};
+use anyhow::{anyhow, Result};
+use core_nav::scheme::Scheme;
+use core_nav::table::Axis;
+use hal_sim::imu::ImuModel;
+use hal_sim::sensor::ImuSpec;
+use hal_sim::sim::{simulate, SimConfig};
+use rayon::prelude::*;
+
+/// The least share of runs whose truth is inside the printed 3 sigma.
+pub const MIN_INSIDE: f64 = 0.97;
+/// The largest ratio of the printed sigma (rms over runs) to the errors'
+/// rms: more is a sigma too conservative to use.
+pub const MAX_CONSERVATIVE: f64 = 3.0;
+
+/// Seeds the book's table runs (each estimate one run a seed).
+pub const SEEDS: u64 = 200;
+
+/// The sensor the study simulates (the board's IMU, every term its file
+/// states: bias instability and rate random walk included).
+pub const SENSOR: &str = "icm42688";
+
+/// One estimate's error and printed 1-sigma in one run.
+#[derive(Clone, Copy, Debug)]
+struct Draw {
+    error: f64,
+    sigma: f64,
+}
+
+/// One estimate's coverage over the runs.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Coverage {
+    /// What is estimated, as the command prints it.
+    pub estimate: String,
+    /// The command that prints it.
+    pub command: &'static str,
+    /// Runs.
+    pub runs: usize,
+    /// Share of runs with the truth inside the printed 3 sigma.
+    pub inside_3_sigma: f64,
+    /// The printed sigma's rms over the errors' rms.
+    pub sigma_over_spread: f64,
+}
+
+impl Coverage {
+    fn of(estimate: String, command: &'static str, d: &[Draw]) -> Self {
+        let n = d.len().max(1) as f64;
+        let rms =
+            |f: &dyn Fn(&Draw) -> f64| (d.iter().map(|x| f(x).powi(2)).sum::<f64>() / n).sqrt();
+        Self {
+            estimate,
+            command,
+            runs: d.len(),
+            inside_3_sigma: d.iter().filter(|x| x.error.abs() <= 3.0 * x.sigma).count() as f64 / n,
+            sigma_over_spread: rms(&|x| x.sigma) / rms(&|x| x.error),
+        }
+    }
+
+    /// Whether the estimate's sigma holds: inside 3 sigma at least
+    /// [`MIN_INSIDE`] of the time, at most [`MAX_CONSERVATIVE`] times the
+    /// spread.
+    pub fn holds(&self) -> bool {
+        self.inside_3_sigma >= MIN_INSIDE && self.sigma_over_spread <= MAX_CONSERVATIVE
+    }
+}
+
+fn sensor() -> Result<ImuSpec> {
+    hal_sim::sensor::resolve(SENSOR).map_err(|e| anyhow!("{e}"))
+}
+
+/// `calibrate` on a still minute and a minute turning at 30 deg/s about
+/// z (the board's power-up): bias and M k per axis, against the realised
+/// sensor's turn-on bias and its scale and misalignment column.
+fn calibration(seed: u64) -> Result<Vec<[Draw; 6]>> {
+    let spec = sensor()?;
+    let mut c = SimConfig::new(spec.clone(), Axis::Z, 120.0);
+    c.scheme = Scheme::Continuous {
+        rate: 30f64.to_radians(),
+    };
+    c.static_s = 60.0;
+    c.seed = seed;
+    let rec = simulate(&c, &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
+    let cal = calibrate(&rec, (0.0, 120.0), Method::Earth, None)?;
+    let g = &ImuModel::new(spec, seed).gyro;
+    let mk = [g.misalignment[(0, 2)], g.misalignment[(1, 2)], g.scale.z];
+    let draw = |i: usize, bias: bool| match bias {
+        true => Draw {
+            error: cal.gyro.bias[i] - g.bias[i],
+            sigma: cal.gyro.sigma_bias[i],
+        },
+        false => Draw {
+            error: cal.gyro.m_k[i] - mk[i],
+            sigma: cal.gyro.sigma_m_k[i],
+        },
+    };
+    Ok(vec![[
+        draw(0, true),
+        draw(1, true),
+        draw(2, true),
+        draw(0, false),
+        draw(1, false),
+        draw(2, false),
+    ]])
+}
+
+/// `allan` on 450 s still: each channel's white noise against the
+/// sensor file's density with the output's rounding (`lsb / sqrt(12
+/// rate)`, white too: the samples hold both).
+fn allan(seed: u64) -> Result<Vec<[Draw; 6]>> {
+    let spec = sensor()?;
+    let mut c = SimConfig::new(spec.clone(), Axis::Z, 450.0);
+    c.seed = seed;
+    let rec = simulate(&c, &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
+    let chs = crate::allan::compute(&rec);
+    let rounding = |lsb: f64| lsb / (12.0 * c.imu_rate_hz).sqrt();
+    let truth = |ch: usize| match ch < 3 {
+        true => spec.gyro.white.hypot(rounding(spec.gyro.lsb)),
+        false => spec.accel.white.hypot(rounding(spec.accel.lsb)),
+    };
+    let mut d = [Draw {
+        error: 0.0,
+        sigma: 0.0,
+    }; 6];
+    for (ch, slot) in d.iter_mut().enumerate() {
+        let f = chs.get(ch).map(|c| c.fit).unwrap_or_default();
+        *slot = Draw {
+            error: f.white - truth(ch),
+            sigma: f.white_sigma,
+        };
+    }
+    Ok(vec![d])
+}
+
+/// `navigate`'s alignment on a still base tilted by a drawn roll and
+/// pitch: its roll and pitch against the base's.
+fn alignment(seed: u64) -> Result<Vec<[Draw; 2]>> {
+    let spec = sensor()?;
+    let mut c = SimConfig::new(spec.clone(), Axis::Z, 120.0);
+    c.static_s = 120.0;
+    c.seed = seed;
+    // A tilt of a few tenths of a degree, drawn per seed.
+    let u =
+        |k: u64| ((seed.wrapping_mul(2_654_435_761).wrapping_add(k) % 1000) as f64 / 1000.0) - 0.5;
+    c.base_deg = [0.6 * u(1), 0.6 * u(2), 37.0];
+    let rec = simulate(&c, &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
+    let al = crate::align::align(&rec, 0.0, Some(&spec))?;
+    let d = |i: usize| Draw {
+        error: crate::align::wrap_deg(al.euler_deg[i] - c.base_deg[i]),
+        sigma: al.sigma_deg[i],
+    };
+    Ok(vec![[d(0), d(1)]])
+}
+
+/// Runs `f` for `seeds`, in parallel, and gathers each estimate's draws.
+fn gather<const N: usize>(
+    seeds: &[u64],
+    f: fn(u64) -> Result<Vec<[Draw; N]>>,
+    done: &(dyn Fn() + Sync),
+) -> Result<[Vec<Draw>; N]> {
+    let runs: Vec<Vec<[Draw; N]>> = seeds
+        .par_iter()
+        .map(|s| {
+            let r = f(*s);
+            done();
+            r
+        })
+        .collect::<Result<_>>()?;
+    let mut out: [Vec<Draw>; N] = std::array::from_fn(|_| vec![]);
+    for d in runs.iter().flatten() {
+        for (o, x) in out.iter_mut().zip(d) {
+            o.push(*x);
+        }
+    }
+    Ok(out)
+}
+
+/// The study over `seeds` (each estimate one run per seed); `done` is
+/// told after each run (three per seed).
+///
+/// # Errors
+/// A simulation or an estimate that fails.
+pub fn study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
+    let mut rows = vec![];
+    let axes = ["x", "y", "z"];
+    let cal = gather(seeds, calibration, done)?;
+    for (k, d) in cal.iter().enumerate() {
+        let what = match k < 3 {
+            true => format!("gyro bias {}", axes[k]),
+            false => format!(
+                "M k {} (scale and misalignment along the table)",
+                axes[k - 3]
+            ),
+        };
+        rows.push(Coverage::of(what, "calibrate", d));
+    }
+    let al = gather(seeds, allan, done)?;
+    for (ch, d) in al.iter().enumerate() {
+        let what = format!("white noise density, {}", crate::allan::CHANNELS[ch]);
+        rows.push(Coverage::of(what, "allan", d));
+    }
+    let lv = gather(seeds, alignment, done)?;
+    for (d, what) in lv.iter().zip(["roll", "pitch"]) {
+        rows.push(Coverage::of(
+            format!("alignment {what} (still start)"),
+            "navigate",
+            d,
+        ));
+    }
+    Ok(rows)
+}
+
+/// The study as a markdown table.
+pub fn table(rows: &[Coverage]) -> String {
+    let mut s = format!(
+        "The sensor: `sensors/{SENSOR}.toml` (every term its file states). Holds: the truth inside the printed 3 sigma in at least {:.0} % of runs, the printed sigma at most {MAX_CONSERVATIVE}x the errors' spread.\n\n",
+        100.0 * MIN_INSIDE
+    );
+    s += "| estimate | command | runs | inside 3 sigma | sigma / spread | holds |\n";
+    s += "|---|---|---|---|---|---|\n";
+    for r in rows {
+        s += &format!(
+            "| {} | `{}` | {} | {:.1} % | {:.2} | {} |\n",
+            r.estimate,
+            r.command,
+            r.runs,
+            100.0 * r.inside_3_sigma,
+            r.sigma_over_spread,
+            if r.holds() { "yes" } else { "**no**" }
+        );
+    }
+    s
+}
