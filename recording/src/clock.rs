@@ -51,19 +51,35 @@ pub struct Irregular {
     /// The longest gap-free span (no interval over [`GAP_PERIODS`]
     /// periods): first and last stamp, s.
     pub longest_span_s: [f64; 2],
+    /// The first and last stamp, s.
+    pub stamps_s: [f64; 2],
 }
 
 impl core::fmt::Display for Irregular {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        let [a, b] = self.longest_span_s;
+        // Times from the first stamp (a log stamped in epoch seconds reads
+        // as its own minutes).
+        let [t0, t1] = self.stamps_s;
+        let [a, b] = self.longest_span_s.map(|t| t - t0);
         write!(
             f,
-            "the stamps are not a regular clock seen late: their earliest lag moves by {:.1} ms (near {:.1} s), more than half the sensor's period ({:.2} ms): samples were lost or the sensor's clock is not regular; the longest gap-free span is {:.2} s ({a:.2}-{b:.2} s)",
+            "the stamps are not a regular clock seen late: their earliest lag moves by {:.1} ms (near {:.1} s from the first stamp), more than half the sensor's period ({:.2} ms): ",
             self.floor_moves_s * 1e3,
-            self.at_s,
+            self.at_s - t0,
             self.period_s * 1e3,
-            b - a
-        )
+        )?;
+        match (b - a) >= 0.99 * (t1 - t0) {
+            true => write!(
+                f,
+                "no sample is missing by the stamps (no gap in the whole {:.2} s), so the sensor's clock wanders against the logger's: these stamps are not arrival times on one regular clock; take them as they are (drop [time] regular)",
+                t1 - t0
+            ),
+            false => write!(
+                f,
+                "samples were lost or the sensor's clock is not regular; the longest gap-free span is {:.2} s ({a:.2}-{b:.2} s from the first stamp)",
+                b - a
+            ),
+        }
     }
 }
 
@@ -101,6 +117,7 @@ pub fn regular(t_s: &[f64]) -> Result<Regular, Irregular> {
                 at_s: 0.0,
                 period_s: 0.0,
                 longest_span_s: [0.0, 0.0],
+                stamps_s: [0.0, 0.0],
             })
         }
     };
@@ -139,6 +156,7 @@ pub fn regular(t_s: &[f64]) -> Result<Regular, Irregular> {
             at_s,
             period_s: p,
             longest_span_s: longest_gap_free(t_s, p),
+            stamps_s: [first, last],
         });
     }
     let lags: Vec<f64> = lag.iter().map(|l| l - lo).collect();
@@ -202,6 +220,37 @@ mod tests {
         // burst (0.4 ms long) or two.
         assert!(e.longest_span_s[1] - e.longest_span_s[0] < 0.1, "{e:?}");
         assert!(e.to_string().contains("samples were lost"), "{e}");
+    }
+
+    #[test]
+    fn bursts_that_share_one_stamp_go_back_on_the_sensors_clock() {
+        // A logger that stamps each burst of five once, when it arrives.
+        let t: Vec<f64> = (0..6000)
+            .map(|k| ((k / 5 + 1) * 5) as f64 * 0.01 + 0.002)
+            .collect();
+        let r = regular(&t).unwrap();
+        for (k, x) in r.t_s.iter().enumerate() {
+            assert!((x - (k as f64 * 0.01 + 0.012)).abs() < 2e-3, "{k}: {x}");
+        }
+        assert!(is_gap_free(&r.t_s, 0.01));
+    }
+
+    #[test]
+    fn a_wandering_clock_without_gaps_is_said_to_be_one_in_its_own_time() {
+        // Epoch-second stamps of a sensor whose clock wanders 20 ms
+        // against the logger's over ten minutes, no sample lost: nothing
+        // is missing, the refusal says so and what to do, in seconds from
+        // the first stamp.
+        let t: Vec<f64> = (0..60_000)
+            .map(|k| {
+                let u = k as f64 * 0.01;
+                1.6e9 + u + 0.02 * (u / 600.0 * core::f64::consts::PI).sin()
+            })
+            .collect();
+        let e = regular(&t).unwrap_err().to_string();
+        assert!(e.contains("no sample is missing"), "{e}");
+        assert!(e.contains("drop [time] regular"), "{e}");
+        assert!(!e.contains("1600000"), "{e}");
     }
 
     #[test]

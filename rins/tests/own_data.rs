@@ -268,6 +268,24 @@ fn a_log_stamped_on_arrival_in_bursts_gives_the_regular_logs_allan_figures() {
             other => panic!("channel {c}: floors {other:?}"),
         }
     }
+    // The same bursts each stamped once, all five samples with the burst's
+    // arrival (a logger that reads a FIFO and stamps the read): the same
+    // figures, not "does not increase".
+    let shared: Vec<f64> = (0..rows.len())
+        .map(|i| ((i / 5 + 1) * 5 - 1).min(rows.len() - 1) as f64 * 0.01 + 0.002)
+        .collect();
+    let (csv, map) = logger_csv(&dir, &rows, Some(&shared));
+    let (stamped, said) = import(&dir, "shared", &csv, &map, &[]);
+    assert!(said.contains("arrival times"), "{said}");
+    let (got, _) = allan(&dir, &stamped, &[]);
+    for (c, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert!(
+            (g.0 / w.0 - 1.0).abs() < 0.1,
+            "channel {c}: {} vs {}",
+            g.0,
+            w.0
+        );
+    }
     // A lost sample cannot be re-stamped: with [time] regular the import
     // refuses, naming the longest gap-free span; without, the gaps are
     // kept and allan refuses with the figures instead of a number.

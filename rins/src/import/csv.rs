@@ -67,7 +67,8 @@ fn times(map: &ColumnMap, stamps: &[f64], rep: &mut CsvReport) -> Result<Vec<f64
     let t: Vec<f64> = stamps.iter().map(|s| s - t0).collect();
     let dt = 1.0 / map.rate_hz;
     rep.pieces = recording::segments(&t, dt).len();
-    if !map.regular && rep.pieces <= 1 {
+    let shared = super::shared_stamps(&t);
+    if !map.regular && rep.pieces <= 1 && shared == 0 {
         return Ok(t);
     }
     match recording::clock::regular(&t) {
@@ -77,6 +78,7 @@ fn times(map: &ColumnMap, stamps: &[f64], rep: &mut CsvReport) -> Result<Vec<f64
             Ok(r.t_s.iter().map(|x| x - first).collect())
         }
         Err(e) if map.regular => bail!("[time] regular: {e}"),
+        Err(e) if shared > 0 => bail!("{}", super::shared_refused(shared, &e)),
         Err(e) => {
             rep.kept_gaps = Some(e.to_string());
             Ok(t)

@@ -146,6 +146,19 @@ pub fn in_base_frame(samples: &[columns::RawSample], t_s: &[f64], sensor: &ImuSp
         .collect()
 }
 
+/// How many samples share their stamp with the one before (a logger that
+/// stamps a burst at once).
+pub fn shared_stamps(t_s: &[f64]) -> usize {
+    t_s.windows(2).filter(|w| w[1] <= w[0]).count()
+}
+
+/// Why samples that share stamps cannot be imported, and what to do.
+fn shared_refused(shared: usize, e: &recording::clock::Irregular) -> String {
+    format!(
+        "{shared} samples share their stamp with the one before (a logger stamping bursts as they arrive): they are put on the sensor's regular clock, which these stamps do not allow: {e}; cut the log at its gaps, or give a time column the sensor made"
+    )
+}
+
 /// A regular sensor clock through the first sightings of its samples
 /// (`[time] regular = true`): a logger sees each sample some time after
 /// it was made, never before: polled faster than the sensor, or delivered
@@ -183,8 +196,14 @@ pub fn rtklib(input: &RtklibInput) -> Result<(Recording, ImportReport)> {
         ..ImportReport::default()
     };
     let mut t_gpst = sample_times(&map, &csv, input, &mut rep)?;
+    let shared = shared_stamps(&t_gpst);
     if map.regular {
         t_gpst = regular_clock(&t_gpst, &mut rep)?;
+    } else if shared > 0 {
+        t_gpst = match recording::clock::regular(&t_gpst) {
+            Ok(_) => regular_clock(&t_gpst, &mut rep)?,
+            Err(e) => bail!("{}", shared_refused(shared, &e)),
+        };
     }
     let (t0, t_end) = match (t_gpst.first(), t_gpst.last()) {
         (Some(a), Some(b)) => (*a, *b),
