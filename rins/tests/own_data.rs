@@ -249,42 +249,34 @@ fn a_log_stamped_on_arrival_in_bursts_gives_the_regular_logs_allan_figures() {
     let (csv, map) = logger_csv(&dir, &rows, None);
     let (regular, _) = import(&dir, "regular", &csv, &map, &[]);
     let (want, _) = allan(&dir, &regular, &[]);
-    // The same samples stamped by arrival, 5 to a burst (50 ms).
-    let (csv, map) = logger_csv(&dir, &rows, Some(&bursty(rows.len(), 5)));
-    let (stamped, said) = import(&dir, "bursty", &csv, &map, &[]);
-    assert!(said.contains("arrival times"), "{said}");
-    let (got, _) = allan(&dir, &stamped, &[]);
-    for (c, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert!(
-            (g.0 / w.0 - 1.0).abs() < 0.1,
-            "channel {c}: {} vs {}",
-            g.0,
-            w.0
-        );
-        // A floor seen in one is seen in the other, to 10 %.
-        match (g.1, w.1) {
-            (Some(a), Some(b)) => assert!((a / b - 1.0).abs() < 0.1, "channel {c}: {a} vs {b}"),
-            (None, None) => {}
-            other => panic!("channel {c}: floors {other:?}"),
-        }
-    }
-    // The same bursts each stamped once, all five samples with the burst's
-    // arrival (a logger that reads a FIFO and stamps the read): the same
-    // figures, not "does not increase".
+    // The same samples stamped by arrival, 5 to a burst (50 ms); and the
+    // same bursts each stamped once, all five samples with the burst's
+    // arrival (a logger that reads a FIFO and stamps the read: once "does
+    // not increase").
     let shared: Vec<f64> = (0..rows.len())
         .map(|i| ((i / 5 + 1) * 5 - 1).min(rows.len() - 1) as f64 * 0.01 + 0.002)
         .collect();
-    let (csv, map) = logger_csv(&dir, &rows, Some(&shared));
-    let (stamped, said) = import(&dir, "shared", &csv, &map, &[]);
-    assert!(said.contains("arrival times"), "{said}");
-    let (got, _) = allan(&dir, &stamped, &[]);
-    for (c, (g, w)) in got.iter().zip(&want).enumerate() {
-        assert!(
-            (g.0 / w.0 - 1.0).abs() < 0.1,
-            "channel {c}: {} vs {}",
-            g.0,
-            w.0
-        );
+    for (name, stamps) in [("bursty", bursty(rows.len(), 5)), ("shared", shared)] {
+        let (csv, map) = logger_csv(&dir, &rows, Some(&stamps));
+        let (stamped, said) = import(&dir, name, &csv, &map, &[]);
+        assert!(said.contains("arrival times"), "{name}: {said}");
+        let (got, _) = allan(&dir, &stamped, &[]);
+        for (c, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert!(
+                (g.0 / w.0 - 1.0).abs() < 0.1,
+                "{name} channel {c}: {} vs {}",
+                g.0,
+                w.0
+            );
+            // A floor seen in one is seen in the other, to 10 %.
+            match (g.1, w.1) {
+                (Some(a), Some(b)) => {
+                    assert!((a / b - 1.0).abs() < 0.1, "{name} channel {c}: {a} vs {b}")
+                }
+                (None, None) => {}
+                other => panic!("{name} channel {c}: floors {other:?}"),
+            }
+        }
     }
     // A lost sample cannot be re-stamped: with [time] regular the import
     // refuses, naming the longest gap-free span; without, the gaps are
