@@ -118,3 +118,58 @@ fn bad_input_gets_a_clear_error() {
         assert!(text.contains(id), "effect {id} missing from --list-effects");
     }
 }
+
+#[test]
+fn an_ideal_run_calibrates_without_stuck_readings() {
+    // A new user's chain (issue 46): `simulate --ideal` then `calibrate`.
+    // The noise-free still phase repeats one value for a minute: signal,
+    // not a stuck channel; nothing is replaced, nothing becomes NaN, and
+    // an error-free gyro calibrates to biases under 0.01 deg/h (the
+    // earth-rate model's and the phases' rounding).
+    let out = std::env::temp_dir().join(format!("rins-cli-ideal-{}", std::process::id()));
+    let st = rins()
+        .args([
+            "simulate",
+            "--ideal",
+            "--static-s",
+            "60",
+            "--duration-s",
+            "120",
+        ])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let json = out.with_extension("json");
+    let o = rins()
+        .args([
+            "calibrate",
+            out.to_str().unwrap(),
+            "--json",
+            json.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        !text.contains("implausible") && !text.contains("stuck"),
+        "{text}"
+    );
+    let cal: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for b in cal["gyro"]["bias_radps"].as_array().unwrap() {
+        let b = b.as_f64().unwrap().to_degrees() * 3600.0;
+        assert!(b.abs() < 0.01, "{b} deg/h: {text}");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+    let _ = std::fs::remove_file(&json);
+}
