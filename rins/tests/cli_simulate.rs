@@ -1,6 +1,9 @@
 //! `rins simulate` end to end: the flags, a readable recording, and
 //! clear errors for bad input.
 
+mod common;
+
+use common::{ok, s};
 use std::process::Command;
 
 fn rins() -> Command {
@@ -126,40 +129,19 @@ fn an_ideal_run_calibrates_without_stuck_readings() {
     // not a stuck channel; nothing is replaced, nothing becomes NaN, and
     // an error-free gyro calibrates to biases under 0.01 deg/h (the
     // earth-rate model's and the phases' rounding).
-    let out = std::env::temp_dir().join(format!("rins-cli-ideal-{}", std::process::id()));
-    let st = rins()
-        .args([
-            "simulate",
-            "--ideal",
-            "--static-s",
-            "60",
-            "--duration-s",
-            "120",
-        ])
-        .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        st.status.success(),
-        "{}",
-        String::from_utf8_lossy(&st.stderr)
-    );
-    let json = out.with_extension("json");
-    let o = rins()
-        .args([
-            "calibrate",
-            out.to_str().unwrap(),
-            "--json",
-            json.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let dir = common::tmp("cli-ideal");
+    let (rec, json) = (s(&dir.join("rec")), dir.join("cal.json"));
+    ok(&common::rins(&[
+        "simulate",
+        "--ideal",
+        "--static-s",
+        "60",
+        "--duration-s",
+        "120",
+        "--out",
+        &rec,
+    ]));
+    let text = ok(&common::rins(&["calibrate", &rec, "--json", &s(&json)]));
     assert!(
         !text.contains("implausible") && !text.contains("stuck"),
         "{text}"
@@ -170,6 +152,5 @@ fn an_ideal_run_calibrates_without_stuck_readings() {
         let b = b.as_f64().unwrap().to_degrees() * 3600.0;
         assert!(b.abs() < 0.01, "{b} deg/h: {text}");
     }
-    let _ = std::fs::remove_dir_all(&out);
-    let _ = std::fs::remove_file(&json);
+    let _ = std::fs::remove_dir_all(&dir);
 }
