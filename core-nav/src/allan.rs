@@ -338,14 +338,16 @@ fn excess(pts: &[AdevPoint], m: &Model) -> f64 {
 pub const TERM_Z: f64 = 4.26;
 
 /// A fitted model: its coefficients (white, flicker, rate random walk,
-/// Gauss-Markov variances), AIC, Gauss-Markov time and white variance's
-/// variance.
+/// Gauss-Markov variances), AIC, Gauss-Markov time, and what its last pass
+/// weighed with (the terms, the prior, the edf cap) for [`Model::var_w`].
 #[derive(Clone, Copy)]
 struct Model {
     aic: f64,
     x: [f64; 4],
     t: f64,
-    var_w: f64,
+    on: [bool; 4],
+    prior: [f64; 4],
+    cap: f64,
 }
 
 impl Model {
@@ -358,6 +360,16 @@ impl Model {
             0.0
         };
         w / tau + FLICKER_AVAR * f + r * tau / 3.0 + gm
+    }
+
+    /// The variance of the white variance, from the last pass's sandwich
+    /// (computed once, for the model chosen: its meat is quadratic in the
+    /// points).
+    fn var_w(&self, pts: &[AdevPoint]) -> f64 {
+        // Without the Gauss-Markov term its time is any positive value
+        // (the term is masked; 0 would make its basis NaN).
+        let t = if self.on[3] { self.t } else { 1.0 };
+        fit_weighted(pts, self.on, t, Some(self.prior), self.cap, true).map_or(0.0, |f| f.2)
     }
 }
 
@@ -375,7 +387,7 @@ fn best_model(pts: &[AdevPoint], allowed: u8, lo: f64, hi: f64, cap: f64) -> Opt
             // bias is white noise by another name over the points) to ten
             // times the longest.
             let t = 3.0 * lo * libm::pow(10.0, g as f64 / GM_PER_DECADE as f64);
-            let Some((x, cost, var_w)) = fit_terms(pts, on, t, cap) else {
+            let Some((x, cost, prior)) = fit_terms(pts, on, t, cap) else {
                 continue;
             };
             // AIC with the capped-edf chi-square (cost / 2).
@@ -385,7 +397,9 @@ fn best_model(pts: &[AdevPoint], allowed: u8, lo: f64, hi: f64, cap: f64) -> Opt
                     aic,
                     x,
                     t: if on[3] { t } else { 0.0 },
-                    var_w,
+                    on,
+                    prior,
+                    cap,
                 });
             }
         }
@@ -395,31 +409,36 @@ fn best_model(pts: &[AdevPoint], allowed: u8, lo: f64, hi: f64, cap: f64) -> Opt
 
 /// One weighted least-squares fit of the terms in `on` (white, flicker, rate
 /// random walk, Gauss-Markov with correlation time `t`): the coefficients
-/// (variances), the fit's cost, and the white variance's variance.
+/// (variances), the fit's cost, and the prior its last pass weighed with.
 fn fit_terms(
     points: &[AdevPoint],
     on: [bool; 4],
     t: f64,
     cap: f64,
-) -> Option<([f64; 4], f64, f64)> {
+) -> Option<([f64; 4], f64, [f64; 4])> {
     // Weights from the model, not from the measured points (iteratively
     // reweighted): weights 1 / measured^2 favour the points that scattered
     // low and bias the fit down (by 4 % on an hour of white noise).
-    let mut fit = fit_weighted(points, on, t, None, cap)?;
+    let mut fit = fit_weighted(points, on, t, None, cap, false)?;
+    let mut prior = fit.0;
     for _ in 0..3 {
-        fit = fit_weighted(points, on, t, Some(fit.0), cap)?;
+        prior = fit.0;
+        fit = fit_weighted(points, on, t, Some(prior), cap, false)?;
     }
-    Some(fit)
+    Some((fit.0, fit.1, prior))
 }
 
 /// One pass of [`fit_terms`], weighting each point by the variance of the
-/// model `prior` (coefficients as returned) or, without one, of the point.
+/// model `prior` (coefficients as returned) or, without one, of the point:
+/// the coefficients, the cost and (with `cov`, else 0) the white
+/// variance's variance.
 fn fit_weighted(
     points: &[AdevPoint],
     on: [bool; 4],
     t: f64,
     prior: Option<[f64; 4]>,
     cap: f64,
+    cov: bool,
 ) -> Option<([f64; 4], f64, f64)> {
     use nalgebra::{Matrix4, Vector4};
     let [o0, o1, o2, o3] = on.map(|x| f64::from(u8::from(x)));
@@ -431,21 +450,30 @@ fn fit_weighted(
     // thousands of degrees of freedom at short tau cannot drown the floor
     // and the slope at long tau (the model only approximates a sensor);
     // the capped weights' covariance is the sandwich with the true ones.
+    // The points come from the same samples: their errors correlate
+    // (`white_avar_correlation`), which the sandwich's meat carries.
     let mut a = Matrix4::from_diagonal(&mask.map(|x| 1.0 - x));
     let mut meat = Matrix4::zeros();
     let mut rhs = Vector4::zeros();
-    for p in points {
-        let v = p.adev * p.adev;
+    let weighed = |p: &AdevPoint| {
         let f = basis(p.tau_s);
         let s2 = prior
             .map(|c| f.dot(&Vector4::from(c)))
             .filter(|m| *m > 0.0)
-            .unwrap_or(v);
+            .unwrap_or(p.adev * p.adev);
+        // The weight, and the point's own sigma of sigma^2.
         let w = p.edf.clamp(1.0, cap) / (s2 * s2);
-        let w_true = p.edf.max(1.0) / (2.0 * s2 * s2);
+        (f, w, s2 * libm::sqrt(2.0 / p.edf.max(1.0)))
+    };
+    for p in points {
+        let (f, w, sd) = weighed(p);
         a += f * f.transpose() * w;
-        meat += f * f.transpose() * (w * w / w_true);
-        rhs += f * (w * v);
+        rhs += f * (w * p.adev * p.adev);
+        for q in points.iter().filter(|_| cov) {
+            let (g, wq, sdq) = weighed(q);
+            let c = white_avar_correlation(p.tau_s, q.tau_s) * sd * sdq;
+            meat += f * g.transpose() * (w * wq * c);
+        }
     }
     let inv = a.try_inverse()?;
     let x = inv * rhs;
@@ -463,6 +491,63 @@ fn fit_weighted(
         .sum();
     let cov = inv * meat * inv;
     Some((x.into(), cost, cov.m11.max(0.0)))
+}
+
+/// The correlation of two overlapping Allan variance estimates of the
+/// same long record of white noise at averaging times `a` and `b` s
+/// (Gaussian: their covariance is `2/T` times the integral of the squared
+/// cross-correlation of the two second-difference filters; the filters
+/// are boxes, so the cross-correlation is piecewise linear between the
+/// differences of their edges and Simpson's rule is exact on each piece).
+pub fn white_avar_correlation(a: f64, b: f64) -> f64 {
+    if !(a > 0.0 && b > 0.0) {
+        return 0.0;
+    }
+    let cross = |x: f64, y: f64| integral_of_squared_cross(x, y);
+    let (ab, aa, bb) = (cross(a, b), cross(a, a), cross(b, b));
+    if aa > 0.0 && bb > 0.0 {
+        ab / libm::sqrt(aa * bb)
+    } else {
+        0.0
+    }
+}
+
+/// `integral R(s)^2 ds` with `R(s) = integral h_a(u) h_b(u + s) du`,
+/// `h_x` the Allan filter at `x` (`-1/x` on `[0, x)`, `+1/x` on `[x, 2x)`).
+fn integral_of_squared_cross(a: f64, b: f64) -> f64 {
+    // Each filter as (start, end, height) boxes.
+    let boxes = |x: f64| [(0.0, x, -1.0 / x), (x, 2.0 * x, 1.0 / x)];
+    let (ha, hb) = (boxes(a), boxes(b));
+    let r = |s: f64| {
+        let mut sum = 0.0;
+        for (a0, a1, ya) in ha {
+            for (b0, b1, yb) in hb {
+                // h_b(u + s) is on [b0 - s, b1 - s).
+                let overlap = (a1.min(b1 - s) - a0.max(b0 - s)).max(0.0);
+                sum += ya * yb * overlap;
+            }
+        }
+        sum
+    };
+    let mut knots = [0.0f64; 9];
+    for (k, slot) in knots.iter_mut().enumerate() {
+        let ea = [0.0, a, 2.0 * a].get(k / 3).copied().unwrap_or(0.0);
+        let eb = [0.0, b, 2.0 * b].get(k % 3).copied().unwrap_or(0.0);
+        *slot = eb - ea;
+    }
+    knots.sort_unstable_by(f64::total_cmp);
+    // R is nonzero for s in (-2a, 2b), the outer knots.
+    let mut total = 0.0;
+    for w in knots.windows(2) {
+        if let [s0, s1] = *w {
+            let h = s1 - s0;
+            if h > 0.0 {
+                let (r0, rm, r1) = (r(s0), r(0.5 * (s0 + s1)), r(s1));
+                total += h / 6.0 * (r0 * r0 + 4.0 * rm * rm + r1 * r1);
+            }
+        }
+    }
+    total
 }
 
 /// Fits [`NoiseFit`] to `points` (weighted, non-negative; see module docs):
@@ -500,19 +585,24 @@ pub fn fit_noise(points: &[AdevPoint]) -> Option<NoiseFit> {
     // resolve would otherwise raise it).
     let best = best_model(pts, 0b1111, lo, hi, FIT_EDF_CAP)?;
     let white_only = best_model(pts, 0b0001, lo, hi, f64::INFINITY)?;
-    let best = match (excess(pts, &white_only) < TERM_Z, best.x[0] > 0.0) {
-        (false, _) => best,
-        (true, true) => Model {
-            x: [best.x[0], 0.0, 0.0, 0.0],
-            t: 0.0,
-            ..best
-        },
-        (true, false) => best_model(pts, 0b0001, lo, hi, FIT_EDF_CAP)?,
+    let (best, var_w) = match (excess(pts, &white_only) < TERM_Z, best.x[0] > 0.0) {
+        (false, _) => (best, best.var_w(pts)),
+        (true, true) => (
+            Model {
+                x: [best.x[0], 0.0, 0.0, 0.0],
+                t: 0.0,
+                ..best
+            },
+            best.var_w(pts),
+        ),
+        (true, false) => {
+            let m = best_model(pts, 0b0001, lo, hi, FIT_EDF_CAP)?;
+            (m, m.var_w(pts))
+        }
     };
     let Model {
         x: [v_white, v_flicker, v_rrw, v_gm],
         t,
-        var_w,
         ..
     } = best;
     let white = libm::sqrt(v_white);

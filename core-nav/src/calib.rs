@@ -604,29 +604,14 @@ pub fn solve(
     unknowns: Unknowns,
     axis: Axis,
 ) -> Result<GyroCalibration, CalibError> {
-    let cols = 2 + usize::from(unknowns.quadratic) + usize::from(unknowns.asymmetry);
-    if phases.len() < cols || phases.len() > MAX_PHASES {
-        return Err(CalibError::NotEnoughData);
-    }
-    let row = |r: f64| {
-        Vector4::new(
-            1.0,
-            r,
-            if unknowns.quadratic { r * r } else { 0.0 },
-            if unknowns.asymmetry {
-                libm::fabs(r)
-            } else {
-                0.0
-            },
-        )
-    };
+    let inv = design_inverse(phases, unknowns)?;
+    let row = |r: f64| design_row(r, unknowns);
     let mut out = GyroCalibration {
         axis,
         ..GyroCalibration::default()
     };
     for i in 0..3 {
         // Weighted by the phase length (variance ARW^2 / T).
-        let mut n = Matrix4::<f64>::zeros();
         let mut rhs = Vector4::<f64>::zeros();
         let mut arw2 = 0.0;
         for p in phases {
@@ -637,24 +622,11 @@ pub fn solve(
             let y = p.mean_w.get(i).copied().unwrap_or(0.0)
                 - earth.seen(p).get(i).copied().unwrap_or(0.0)
                 - p.rate_radps * k_i;
-            n += h * h.transpose() * w;
             rhs += h * (w * y);
             arw2 += sensor_noise(p, axis).get(i).map_or(0.0, |a| a * a) * p.duration_s;
         }
         let total_t: f64 = phases.iter().map(|p| p.duration_s).sum();
         let arw2 = arw2 / total_t.max(1e-9);
-        // Unused unknowns: a unit diagonal keeps them at zero.
-        n += Matrix4::from_diagonal(&Vector4::new(
-            0.0,
-            0.0,
-            if unknowns.quadratic { 0.0 } else { 1.0 },
-            if unknowns.asymmetry { 0.0 } else { 1.0 },
-        ));
-        let inv = n.try_inverse().ok_or(CalibError::Degenerate)?;
-        // Conditioning guard: a singular design shows as a huge inverse.
-        if !inv.iter().all(|x| x.is_finite()) || inv.norm() * n.norm() > 1e14 {
-            return Err(CalibError::Degenerate);
-        }
         let x = inv * rhs;
         // Covariance: ARW^2 (H^T W H)^-1 with W = T (white noise, variance ARW^2/T).
         let var = inv.diagonal() * arw2;
@@ -680,6 +652,144 @@ pub fn solve(
         );
     }
     Ok(out)
+}
+
+/// One row of the phases' design: `[1, r, r^2, |r|]` with the unknowns
+/// not solved for at 0.
+fn design_row(r: f64, unknowns: Unknowns) -> Vector4<f64> {
+    Vector4::new(
+        1.0,
+        r,
+        if unknowns.quadratic { r * r } else { 0.0 },
+        if unknowns.asymmetry {
+            libm::fabs(r)
+        } else {
+            0.0
+        },
+    )
+}
+
+/// `(H^T W H)^-1` of the phases' design (weights their lengths), the same
+/// for every gyro axis; unknowns not solved for held at zero by a unit
+/// diagonal.
+fn design_inverse(phases: &[Phase], unknowns: Unknowns) -> Result<Matrix4<f64>, CalibError> {
+    let cols = 2 + usize::from(unknowns.quadratic) + usize::from(unknowns.asymmetry);
+    if phases.len() < cols || phases.len() > MAX_PHASES {
+        return Err(CalibError::NotEnoughData);
+    }
+    let mut n = Matrix4::from_diagonal(&Vector4::new(
+        0.0,
+        0.0,
+        if unknowns.quadratic { 0.0 } else { 1.0 },
+        if unknowns.asymmetry { 0.0 } else { 1.0 },
+    ));
+    for p in phases {
+        let h = design_row(p.rate_radps, unknowns);
+        n += h * h.transpose() * p.duration_s;
+    }
+    let inv = n.try_inverse().ok_or(CalibError::Degenerate)?;
+    // Conditioning guard: a singular design shows as a huge inverse.
+    if !inv.iter().all(|x| x.is_finite()) || inv.norm() * n.norm() > 1e14 {
+        return Err(CalibError::Degenerate);
+    }
+    Ok(inv)
+}
+
+/// How each phase's mean moves the solution: `[b, m, q, a]` change by
+/// `gains[j]` per unit change of phase `j`'s mean on any axis (the same
+/// least squares as [`solve`]; unused slots zero). The bias's gains sum
+/// to 1 and every other unknown's to 0, so a bias common to all phases
+/// moves only the bias.
+///
+/// # Errors
+/// As [`solve`].
+pub fn gains(
+    phases: &[Phase],
+    unknowns: Unknowns,
+) -> Result<[Vector4<f64>; MAX_PHASES], CalibError> {
+    let inv = design_inverse(phases, unknowns)?;
+    let mut g = [Vector4::zeros(); MAX_PHASES];
+    for (gj, p) in g.iter_mut().zip(phases) {
+        *gj = inv * design_row(p.rate_radps, unknowns) * p.duration_s;
+    }
+    Ok(g)
+}
+
+/// The slow part of one gyro axis's bias, rad/s, for the calibration's
+/// predicted sigma: what moves the bias between phases besides white
+/// noise (a sensor file states it; the calibration cannot measure it).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct BiasDrift {
+    /// First-order Gauss-Markov processes: (stationary sigma rad/s,
+    /// correlation time s); unused slots (0, 0).
+    pub gauss_markov: [(f64, f64); 4],
+    /// Rate random walk, rad/s/sqrt(s).
+    pub rrw: f64,
+    /// Bias temperature coefficient (1 sigma of the unit's), rad/s/degC.
+    pub temp_bias: f64,
+}
+
+/// Where and how warm a phase was: its start and length, s, and its mean
+/// sensor temperature, degC (`None`: not recorded).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PhaseSpan {
+    /// Start, s.
+    pub t0_s: f64,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Mean temperature, degC.
+    pub temp_c: Option<f64>,
+}
+
+impl BiasDrift {
+    /// The covariance of the bias's means over two phases, (rad/s)^2:
+    /// each Gauss-Markov process's and the random walk's double integral
+    /// in closed form, and the temperature coefficient times both mean
+    /// temperatures (relative to any reference: the unknowns other than
+    /// the bias see differences only).
+    pub fn mean_covariance(&self, a: &PhaseSpan, b: &PhaseSpan) -> f64 {
+        let (t1, t2) = (a.duration_s.max(1e-9), b.duration_s.max(1e-9));
+        // With G'' = k: the double integral of k(t - s) over s in a, t in b.
+        let over = |g: &dyn Fn(f64) -> f64| {
+            let d = b.t0_s - a.t0_s;
+            g(d + t2) - g(d + t2 - t1) - g(d) + g(d - t1)
+        };
+        let mut c = 0.0;
+        for &(sigma, tau) in &self.gauss_markov {
+            if sigma > 0.0 && tau > 0.0 {
+                let g = |u: f64| {
+                    let u = libm::fabs(u);
+                    tau * tau * (libm::exp(-u / tau) - 1.0) + tau * u
+                };
+                c += sigma * sigma * over(&g) / (t1 * t2);
+            }
+        }
+        if self.rrw > 0.0 {
+            // min(s, t) = (s + t - |s - t|) / 2; |u| = H'' with H = |u|^3/6.
+            let h = |u: f64| libm::fabs(u * u * u) / 6.0;
+            let mid = (a.t0_s + t1 / 2.0 + b.t0_s + t2 / 2.0) / 2.0;
+            c += self.rrw * self.rrw * (mid - over(&h) / (2.0 * t1 * t2));
+        }
+        if let (Some(ta), Some(tb)) = (a.temp_c, b.temp_c) {
+            c += self.temp_bias * self.temp_bias * ta * tb;
+        }
+        c
+    }
+
+    /// The 1-sigma error the drift adds to each unknown `[b, m, q, a]`
+    /// (quadrature with the white noise's), from the phases' [`gains`]:
+    /// `sqrt(sum_jk g_j g_k C_jk)`. The bias's entry is the error against
+    /// the bias at turn-on; against the bias over the calibration (what
+    /// the calibration reports) it is 0.
+    pub fn sigma(&self, gains: &[Vector4<f64>], spans: &[PhaseSpan]) -> Vector4<f64> {
+        let mut var = Vector4::<f64>::zeros();
+        for (gj, sj) in gains.iter().zip(spans) {
+            for (gk, sk) in gains.iter().zip(spans) {
+                var += gj.component_mul(gk) * self.mean_covariance(sj, sk);
+            }
+        }
+        var.map(|v| libm::sqrt(v.max(0.0)))
+    }
 }
 
 /// The averaging time at which an Allan curve is lowest, s: the static
@@ -739,6 +849,61 @@ mod tests {
             insertion_sort(&mut v[..n]);
             w[..n].sort_unstable_by(f64::total_cmp);
             assert_eq!(v, w);
+        }
+    }
+
+    /// The closed forms against a brute-force double sum of each
+    /// process's covariance function (the definition), on overlapping,
+    /// adjacent and separated phases of unequal length.
+    #[test]
+    fn the_drifts_phase_covariance_is_its_double_integral() {
+        use super::{BiasDrift, PhaseSpan};
+        let span = |t0_s: f64, duration_s: f64| PhaseSpan {
+            t0_s,
+            duration_s,
+            temp_c: None,
+        };
+        let brute = |a: &PhaseSpan, b: &PhaseSpan, k: &dyn Fn(f64, f64) -> f64| {
+            let n = 600;
+            let (da, db) = (a.duration_s / n as f64, b.duration_s / n as f64);
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    sum += k(
+                        a.t0_s + (i as f64 + 0.5) * da,
+                        b.t0_s + (j as f64 + 0.5) * db,
+                    );
+                }
+            }
+            sum / (n * n) as f64
+        };
+        let gm = BiasDrift {
+            gauss_markov: [(2.0, 37.0), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0)],
+            ..BiasDrift::default()
+        };
+        let rw = BiasDrift {
+            rrw: 0.3,
+            ..BiasDrift::default()
+        };
+        let pairs = [
+            (span(10.0, 60.0), span(10.0, 60.0)),
+            (span(0.0, 60.0), span(60.0, 45.0)),
+            (span(5.0, 20.0), span(100.0, 80.0)),
+            (span(100.0, 80.0), span(5.0, 20.0)),
+            (span(0.0, 50.0), span(30.0, 50.0)),
+        ];
+        for (a, b) in pairs {
+            let g = brute(&a, &b, &|s, t| 4.0 * (-(s - t).abs() / 37.0).exp());
+            let r = brute(&a, &b, &|s: f64, t: f64| 0.09 * s.min(t));
+            // The midpoint sum's error is below 1e-4 of these values.
+            assert!(
+                (gm.mean_covariance(&a, &b) - g).abs() < 1e-4 * g,
+                "{a:?} {b:?}"
+            );
+            assert!(
+                (rw.mean_covariance(&a, &b) - r).abs() < 1e-4 * r,
+                "{a:?} {b:?}"
+            );
         }
     }
 }

@@ -25,14 +25,8 @@ pub use ::sensor::file::ImuSpec;
 pub use ::sensor::spec::{TempSpec, TriadSpec};
 use nalgebra::{Matrix3, Vector3};
 
-/// Gauss-Markov processes in the flicker approximation.
-pub const FLICKER_BANK: usize = 4;
-/// Their correlation times relative to `bi_tau_s` (a decade apart).
-const FLICKER_TAUS: [f64; FLICKER_BANK] = [0.03, 0.3, 3.0, 30.0];
-/// Their common sigma relative to `bias_instability`, chosen so the Allan
-/// floor between the extreme taus equals 0.62 x `bias_instability`, the
-/// peak of a single process (checked in `tests/statistics.rs`).
-const FLICKER_SIGMA: f64 = 0.78;
+pub use ::sensor::spec::FLICKER_BANK;
+use ::sensor::spec::{FLICKER_SIGMA, FLICKER_TAUS};
 
 /// One triad's realised (turn-on) error values and noise state.
 #[derive(Clone, Debug, PartialEq)]
@@ -323,6 +317,15 @@ impl ImuModel {
             self.gyro.finish(g, dt, &mut self.white),
             self.accel.finish(a, dt, &mut self.white),
         )
+    }
+
+    /// The gyro's bias now, rad/s in `s`: what it reads at rest beyond
+    /// white noise and rounding (turn-on bias, temperature, Gauss-Markov
+    /// and random-walk states, g-sensitivity to `f` m/s^2 in `s`) at
+    /// `temp_c` degC. The truth a calibration's bias is checked against.
+    pub fn gyro_bias_now(&self, f: &Vector3<f64>, temp_c: f64) -> Vector3<f64> {
+        let dt_c = temp_c - self.spec.temp.ambient_c;
+        self.gyro.apply(&Vector3::zeros(), dt_c, &(self.g_sens * f))
     }
 
     /// The temperature output (quantised), degC.

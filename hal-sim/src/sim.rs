@@ -481,6 +481,31 @@ pub const STATED_HEADING_SIGMA_DEG: f64 = 0.1;
 /// A scheme out of range, non-positive rates or duration, a latency above
 /// 1 s.
 pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Recording, SimError> {
+    simulate_observed(cfg, progress, &mut |_| {})
+}
+
+/// The sensor's hidden state at one IMU sample: the oracle a study checks
+/// estimates against (never in the recording).
+#[derive(Clone, Copy, Debug)]
+pub struct Hidden {
+    /// The sample's stamp, s.
+    pub t_s: f64,
+    /// The gyro's bias at the sample, rad/s in `s`
+    /// ([`crate::imu::ImuModel::gyro_bias_now`]).
+    pub gyro_bias_radps: Vector3<f64>,
+    /// The sensor's true temperature minus its ambient, degC.
+    pub temp_rise_c: f64,
+}
+
+/// [`simulate`], telling `hidden` each IMU sample's [`Hidden`] state.
+///
+/// # Errors
+/// As [`simulate`].
+pub fn simulate_observed(
+    cfg: &SimConfig,
+    progress: &mut dyn FnMut(f64),
+    hidden: &mut dyn FnMut(&Hidden),
+) -> Result<Recording, SimError> {
     for (what, value) in [
         ("the duration (--duration-s), s", cfg.duration_s),
         (
@@ -737,6 +762,11 @@ pub fn simulate(cfg: &SimConfig, progress: &mut dyn FnMut(f64)) -> Result<Record
             }
             let temp = imu.temperature_c(t_true);
             let (g, a) = imu.measure(&w, &f, temp, imu_dt);
+            hidden(&Hidden {
+                t_s: t_k,
+                gyro_bias_radps: imu.gyro_bias_now(&f, temp),
+                temp_rise_c: temp - cfg.imu.temp.ambient_c,
+            });
             rec.imu.push(ImuRow {
                 t_s: t_k,
                 gyro_radps: [g.x, g.y, g.z],

@@ -190,6 +190,12 @@ pub struct Calibration {
     pub gyro: GyroCalibration,
     /// The phases used.
     pub phases: Vec<(Segment, Phase)>,
+    /// The unknowns solved for.
+    pub unknowns: Unknowns,
+    /// The sensor whose drift between phases (bias instability, rate
+    /// random walk, temperature) the sigmas of `M k`, `q` and `a` count
+    /// besides white noise; `None`: white noise only (the drift unknown).
+    pub drift_of: Option<String>,
 }
 
 /// The earth model for a recording (latitude, base attitude).
@@ -218,6 +224,22 @@ pub fn calibrate(
     window: (f64, f64),
     method: Method,
     commanded_radps: Option<f64>,
+) -> Result<Calibration> {
+    calibrate_with(rec, window, method, commanded_radps, None)
+}
+
+/// [`calibrate`] with the sensor whose drift the sigmas count (`None`:
+/// the recording's `[imu] model` when it names a known profile, else
+/// white noise only, said in the report).
+///
+/// # Errors
+/// As [`calibrate`].
+pub fn calibrate_with(
+    rec: &Recording,
+    window: (f64, f64),
+    method: Method,
+    commanded_radps: Option<f64>,
+    sensor: Option<&hal_sim::imu::ImuSpec>,
 ) -> Result<Calibration> {
     let dt = 1.0 / rec.meta.imu_rate_hz;
     let mut cut = rec.clone();
@@ -308,13 +330,59 @@ pub fn calibrate(
         asymmetry: method == Method::Multirate && both_signs && mags.len() >= 2,
     };
     let ps: Vec<Phase> = phases.iter().map(|(_, p)| *p).collect();
-    let gyro =
+    let mut gyro =
         solve(&ps, &earth, unknowns, rec.meta.axis).map_err(|e: CalibError| anyhow!("{e}"))?;
+    let spec = sensor.cloned().or_else(|| {
+        rec.meta
+            .imu_model
+            .as_deref()
+            .and_then(hal_sim::imu::ImuSpec::by_model)
+    });
+    if let Some(spec) = &spec {
+        let spans = spans(rec, &phases);
+        let g = core_nav::calib::gains(&ps, unknowns).map_err(|e| anyhow!("{e}"))?;
+        let d = spec.gyro.bias_drift().sigma(&g, &spans);
+        let add = |v: &mut Vector3<f64>, d: f64| *v = v.map(|x| x.hypot(d));
+        add(&mut gyro.sigma_m_k, d.y);
+        if unknowns.quadratic {
+            add(&mut gyro.sigma_q, d.z);
+        }
+        if unknowns.asymmetry {
+            add(&mut gyro.sigma_a, d.w);
+        }
+    }
     Ok(Calibration {
         method,
         gyro,
         phases,
+        unknowns,
+        drift_of: spec.map(|s| s.name),
     })
+}
+
+/// Each phase's start, used length and mean recorded temperature (the
+/// drift's covariance between phases, [`core_nav::calib::BiasDrift`]).
+pub fn spans(rec: &Recording, phases: &[(Segment, Phase)]) -> Vec<core_nav::calib::PhaseSpan> {
+    phases
+        .iter()
+        .map(|(s, p)| {
+            let end = s.t0_s + p.duration_s;
+            let temps: Vec<Option<f64>> = rec
+                .imu
+                .iter()
+                .filter(|r| r.t_s >= s.t0_s && r.t_s < end)
+                .map(|r| r.temp_c)
+                .collect();
+            let all: Option<Vec<f64>> = temps.iter().copied().collect();
+            core_nav::calib::PhaseSpan {
+                t0_s: s.t0_s,
+                duration_s: p.duration_s,
+                temp_c: all
+                    .filter(|t| !t.is_empty())
+                    .map(|t| t.iter().sum::<f64>() / t.len() as f64),
+            }
+        })
+        .collect()
 }
 
 fn describe(segs: &[Segment]) -> String {
@@ -384,6 +452,7 @@ pub fn to_json(r: &Calibration) -> Value {
             "asymmetry": sigma_json(&g.sigma_a, a_solved),
         },
         "not_estimated": not_estimated,
+        "sigma_drift_of": r.drift_of,
         "phases": r.phases.iter().map(|(s, p)| json!({
             "t_start_s": s.t0_s, "t_end_s": s.t1_s, "rate_dps": p.rate_radps.to_degrees(),
             "duration_s": p.duration_s, "mean_gyro_radps": vec3_json(&p.mean_w), "arw_rad_per_sqrt_s": vec3_json(&p.arw),
@@ -499,6 +568,10 @@ pub fn report(r: &Calibration) -> String {
             g.sigma_m_k[i] * 1e6,
         );
     }
+    s += &match &r.drift_of {
+        Some(n) => format!("  bias: over the phases, at their temperature; the other sigmas count white noise and {n}'s drift between phases (bias instability, rate random walk, temperature)\n"),
+        None => "  bias: over the phases, at their temperature; the other sigmas count white noise only: the sensor's drift between phases is not known (--sensor)\n".into(),
+    };
     if !q_solved || !a_solved {
         s += &format!(
             "  not estimated by this method (one rate, or one direction): {}; applied as 0 (no correction); --method multirate on a run at 3+ rates both ways solves them\n",

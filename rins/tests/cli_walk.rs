@@ -143,6 +143,8 @@ const CALIBRATE: Walk = Walk {
         changes("--to-s", &["{rec}", "--to-s", "150"], &["{rec}"], &[]),
         refused("--rate-dps", &["{rec}", "--rate-dps", "45"], &["commanded 45.000 deg/s"]),
         same("--rate-dps", &["{rec}", "--rate-dps", "30"], &["{rec}"], &[]),
+        changes("--sensor", &["{rec}", "--sensor", "nav440"], &["{rec}"], &[]),
+        refused("--sensor", &["{rec}", "--sensor", "no-such-sensor"], &["no-such-sensor"]),
     ],
 };
 

@@ -14,6 +14,15 @@ pub const G0: f64 = 9.806_65;
 /// instability (the Allan floor) is this fraction of the process's sigma.
 pub const ALLAN_PEAK_PER_GM_SIGMA: f64 = 0.62;
 
+/// Gauss-Markov processes in the flicker approximation.
+pub const FLICKER_BANK: usize = 4;
+/// Their correlation times relative to `bi_tau_s` (a decade apart).
+pub const FLICKER_TAUS: [f64; FLICKER_BANK] = [0.03, 0.3, 3.0, 30.0];
+/// Their common sigma relative to `bias_instability`, chosen so the Allan
+/// floor between the extreme taus equals 0.62 x `bias_instability`, the
+/// peak of a single process (checked in `tests/statistics.rs`).
+pub const FLICKER_SIGMA: f64 = 0.78;
+
 /// Magnitudes of one triad's error terms (SI; random terms as 1 sigma).
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct TriadSpec {
@@ -36,7 +45,7 @@ pub struct TriadSpec {
     /// Gauss-Markov correlation time, s.
     pub bi_tau_s: f64,
     /// Flicker approximation: the bias instability is a bank of
-    /// Gauss-Markov processes (hal-sim's `FLICKER_BANK`) a decade apart around
+    /// Gauss-Markov processes ([`FLICKER_BANK`]) a decade apart around
     /// `bi_tau_s`, so the Allan deviation has a flat floor instead of one
     /// GM bump.
     pub flicker: bool,
@@ -50,6 +59,30 @@ pub struct TriadSpec {
     pub lsb: f64,
     /// Full scale, unit (0: none).
     pub full_scale: f64,
+}
+
+impl TriadSpec {
+    /// The slow part of the bias this file states (the Gauss-Markov
+    /// process or the flicker bank, the rate random walk, the temperature
+    /// coefficient), the processes the simulator realises: what a
+    /// calibration's sigma must add to its white noise.
+    pub fn bias_drift(&self) -> core_nav::calib::BiasDrift {
+        let mut gauss_markov = [(0.0, 0.0); FLICKER_BANK];
+        if self.bias_instability > 0.0 && self.bi_tau_s > 0.0 {
+            if self.flicker {
+                for (g, rel) in gauss_markov.iter_mut().zip(FLICKER_TAUS) {
+                    *g = (self.bias_instability * FLICKER_SIGMA, self.bi_tau_s * rel);
+                }
+            } else if let Some(g) = gauss_markov.first_mut() {
+                *g = (self.bias_instability, self.bi_tau_s);
+            }
+        }
+        core_nav::calib::BiasDrift {
+            gauss_markov,
+            rrw: self.rrw,
+            temp_bias: self.temp_bias,
+        }
+    }
 }
 
 /// Temperature of the sensor: warm-up from ambient.

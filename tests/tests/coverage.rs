@@ -5,26 +5,9 @@
 //! results --only coverage`) is this study's, and each estimate holds or
 //! not as the book says.
 
-/// The estimates whose printed sigma does not hold yet (issue 46, open):
-/// calibrate's sigmas count white noise only (the sensor's bias
-/// instability, temperature and rounding are left out: 8-25 % of the
-/// errors' spread), allan's white-noise sigma treats its correlated
-/// octave points as independent and leaves out the split between white
-/// noise and the other terms (half the spread).
-const OPEN: [&str; 12] = [
-    "gyro bias x",
-    "gyro bias y",
-    "gyro bias z",
-    "M k x (scale and misalignment along the table)",
-    "M k y (scale and misalignment along the table)",
-    "M k z (scale and misalignment along the table)",
-    "white noise density, gyro_x_radps",
-    "white noise density, gyro_y_radps",
-    "white noise density, gyro_z_radps",
-    "white noise density, accel_x_mps2",
-    "white noise density, accel_y_mps2",
-    "white noise density, accel_z_mps2",
-];
+/// The estimates whose printed sigma does not hold (none now; one that
+/// stops holding is named here with the reason, and in the book).
+const OPEN: [&str; 0] = [];
 
 #[test]
 fn the_books_coverage_table_is_the_studys_and_says_which_hold() {

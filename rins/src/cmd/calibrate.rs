@@ -30,6 +30,11 @@ pub struct Args {
     /// The commanded table rate, deg/s: steady phases must reach it within 2 %.
     #[arg(long)]
     pub rate_dps: Option<f64>,
+    /// The sensor (a shipped profile's name or a sensor file) whose drift
+    /// between phases the sigmas count (default: the recording's
+    /// `[imu] model`; unknown, white noise only).
+    #[arg(long)]
+    pub sensor: Option<String>,
 }
 
 /// Runs `rins calibrate`.
@@ -37,11 +42,16 @@ pub fn run(a: &Args) -> Result<()> {
     let rec = super::plausible(read_recording(&a.rec)?, None, a.keep_implausible);
     rec.require_accel("rins calibrate")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let r = calibrate::calibrate(
+    let sensor = match &a.sensor {
+        Some(n) => Some(hal_sim::sensor::resolve(n)?),
+        None => None,
+    };
+    let r = calibrate::calibrate_with(
         &rec,
         (a.from_s, a.to_s),
         a.method,
         a.rate_dps.map(f64::to_radians),
+        sensor.as_ref(),
     )
     .with_context(|| format!("calibrating {}", a.rec.display()))?;
     print!("{}", calibrate::report(&r));
