@@ -184,6 +184,30 @@ fn nulls_give_no_finding() {
 }
 
 #[test]
+fn a_still_perfect_table_names_nothing() {
+    // The null: a table that never turns and hides nothing (the
+    // nominal model's terms, white noise, and with `wander` its bias
+    // instability), 600 s: no effect named (bias instability only when
+    // the bias wanders), whatever the seed.
+    for seed in [31, 32, 33] {
+        for wander in [false, true] {
+            let mut c = config(Axis::Z, wander, seed, 600.0);
+            c.scheme = core_nav::scheme::Scheme::Still;
+            let d = diagnose(&c, Model::default());
+            assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
+            match wander {
+                false => assert!(d.findings.is_empty(), "still {seed}: {:?}", d.findings),
+                true => assert!(
+                    named(&d).is_empty(),
+                    "still, wander {seed}: {:?}",
+                    named(&d)
+                ),
+            }
+        }
+    }
+}
+
+#[test]
 fn known_effects_in_the_model_are_not_reported_again() {
     let mut c = config(Axis::Z, false, 14, 600.0);
     c.set_effect("lever_arm", 0.02).unwrap();
