@@ -247,10 +247,18 @@ pub fn segment_ranges(t_s: &[f64], dt_s: f64) -> Vec<core::ops::Range<usize>> {
 /// (recording-v1).
 pub const GAP_PERIODS: f64 = 2.5;
 
+/// The stamps' rounding a gap's length is read through, s: an interval of
+/// exactly [`GAP_PERIODS`] periods (a logger's stamps in whole
+/// milliseconds make many) is no gap on any clock origin, while a
+/// difference of two stamps near 1e9 s (epoch seconds) is rounded by
+/// 2.4e-7 s.
+pub const GAP_STAMP_TOLERANCE_S: f64 = 1e-6;
+
 /// Sample times `t_s` (s, increasing) split at the gaps: intervals over
-/// [`GAP_PERIODS`] times the nominal interval `dt_s`.
+/// [`GAP_PERIODS`] times the nominal interval `dt_s` (beyond
+/// [`GAP_STAMP_TOLERANCE_S`]).
 pub fn segments(t_s: &[f64], dt_s: f64) -> Vec<Segment> {
-    let limit = GAP_PERIODS * dt_s;
+    let limit = GAP_PERIODS * dt_s + GAP_STAMP_TOLERANCE_S;
     let mut out = vec![];
     let mut start = 0;
     for (i, w) in t_s.windows(2).enumerate() {

@@ -151,6 +151,11 @@ fn bordered(quad: &Normal<3>, rows: &[[f64; 4]], y: &[f64]) -> Normal<4> {
     (ata, aty)
 }
 
+/// The relative misfit within which two knots are the same fit: far above
+/// what rounding the stamps (1e-13 s at 1000 s) does to a misfit, far
+/// below any difference a read can make.
+const TIE: f64 = 1e-6;
+
 impl EncoderTrack {
     /// The track through reads at times `t_s` (s, increasing) with angles
     /// `angle_rad` (rad, unwrapped), whose quantum is `quantum_rad` (0 for
@@ -259,7 +264,11 @@ impl EncoderTrack {
                 }
                 let rows = &rows[..ys.len()];
                 if let Some((ck, r)) = solve(bordered(&quad_ne, rows, ys), rows, ys) {
-                    if best.is_none_or(|b| r < b.1) {
+                    // A knot must fit better by more than the stamps'
+                    // rounding can move the misfit (TIE): else near-equal
+                    // knots swap with the clock's origin and the rate at
+                    // a step jumps with them.
+                    if best.is_none_or(|b| r < b.1 * (1.0 - TIE)) {
                         best = Some((ck, r, tau));
                     }
                 }

@@ -461,16 +461,18 @@ impl AidedSummary {
         }
         o += &match (self.nis_mean_per_dof, self.nis_in_95) {
             (Some(m), Some(f)) => format!(
-                "NIS per component {m:.2} ({:.0} % of fixes inside their 95 % bounds)\n",
+                "NIS per component {} ({:.0} % of fixes inside their 95 % bounds)\n",
+                recording::figures::sig(m, 2),
                 100.0 * f
             ),
             _ => "NIS not measured: no fix was used\n".into(),
         };
         if let (Some(m), Some(f)) = (self.nees_mean_per_dof, self.nees_in_95) {
             o += &format!(
-                "NEES per degree of freedom {m:.2} ({:.0} % of seconds inside the 95 % bounds; position, velocity, attitude){}\n",
+                "NEES per degree of freedom {} ({:.0} % of seconds inside the 95 % bounds; position, velocity, attitude){}\n",
+                recording::figures::sig(m, 2),
                 100.0 * f,
-                self.nees_attitude_per_dof.map_or(String::new(), |a| format!("; attitude alone {a:.2}"))
+                self.nees_attitude_per_dof.map_or(String::new(), |a| format!("; attitude alone {}", recording::figures::sig(a, 2)))
             );
         }
         if let Some(d) = self.nees_diag_in_95 {
