@@ -57,6 +57,39 @@ pub enum Scheme {
         /// Dwell at each position, s.
         dwell_s: f64,
     },
+    /// Multi-rate: `turns` whole turns at each of the first `count`
+    /// signed `rates` (rad/s) in turn, from rest to rest, dwelling
+    /// `dwell_s` after each: the phases a multi-rate calibration solves
+    /// the rate-squared term and (both signs) the asymmetry from.
+    Rates {
+        /// Signed rates, rad/s (the first `count` used).
+        rates: [f64; MAX_RATES],
+        /// How many rates (1 ..= [`MAX_RATES`]).
+        count: u8,
+        /// Whole turns at each rate (>= 1).
+        turns: u32,
+        /// Dwell after each, s.
+        dwell_s: f64,
+    },
+}
+
+/// Most rates in a [`Scheme::Rates`].
+pub const MAX_RATES: usize = 4;
+
+impl Scheme {
+    /// The largest rate the scheme commands, rad/s (unsigned; 0 still).
+    pub fn peak_rate(&self) -> f64 {
+        match *self {
+            Scheme::Still => 0.0,
+            Scheme::Continuous { rate }
+            | Scheme::Reciprocating { rate, .. }
+            | Scheme::Indexed { rate, .. } => libm::fabs(rate),
+            Scheme::Rates { rates, count, .. } => rates
+                .iter()
+                .take(usize::from(count))
+                .fold(0.0, |m, r| m.max(libm::fabs(*r))),
+        }
+    }
 }
 
 /// The table reference at one time.
@@ -150,6 +183,8 @@ pub struct Profile {
     segments: [Segment; MAX_SEGMENTS],
     count: usize,
     period_s: f64,
+    /// Net angle of one period, rad (a whole number of turns).
+    net_rad: f64,
 }
 
 impl Profile {
@@ -157,7 +192,8 @@ impl Profile {
     ///
     /// # Errors
     /// [`NavError::BadScheme`] for a rate of zero or above the limit, zero
-    /// turns, a position count other than 2 or 4, or a negative dwell.
+    /// turns, a position count other than 2 or 4, a rate count other than
+    /// 1 ..= [`MAX_RATES`], or a negative dwell.
     pub fn new(scheme: Scheme, limits: Limits) -> Result<Self, NavError> {
         let ok_rate = |r: f64| r.is_finite() && r.abs() > 0.0 && r.abs() <= limits.max_rate;
         if !(limits.max_rate > 0.0 && limits.max_accel > 0.0) {
@@ -169,6 +205,7 @@ impl Profile {
             segments: [Segment::default(); MAX_SEGMENTS],
             count: 0,
             period_s: 0.0,
+            net_rad: 0.0,
         };
         let tau = core::f64::consts::TAU;
         match scheme {
@@ -209,8 +246,31 @@ impl Profile {
                     ));
                 }
             }
+            Scheme::Rates {
+                rates,
+                count,
+                turns,
+                dwell_s,
+            } => {
+                let n = usize::from(count);
+                let used = rates.get(..n).unwrap_or(&[]);
+                let ok = (1..=MAX_RATES).contains(&n)
+                    && turns > 0
+                    && dwell_s >= 0.0
+                    && dwell_s.is_finite()
+                    && used.iter().all(|r| ok_rate(*r));
+                if !ok {
+                    return Err(NavError::BadScheme);
+                }
+                for r in used {
+                    let d = f64::from(turns) * tau * r.signum();
+                    p.push(Segment::mv(d, libm::fabs(*r), limits.max_accel));
+                    p.push(Segment::dwell(dwell_s));
+                }
+            }
         }
         p.period_s = p.segments.iter().take(p.count).map(|s| s.duration).sum();
+        p.net_rad = p.segments.iter().take(p.count).map(|s| s.dist).sum();
         Ok(p)
     }
 
@@ -257,9 +317,11 @@ impl Profile {
                 }
             }
             _ => {
-                // Every periodic scheme here returns to its start each period.
-                let mut tau = t_s - libm::floor(t_s / self.period_s) * self.period_s;
-                let mut angle0 = 0.0;
+                // Each period adds its net angle (0 but for multi-rate's
+                // whole turns).
+                let periods = libm::floor(t_s / self.period_s);
+                let mut tau = t_s - periods * self.period_s;
+                let mut angle0 = periods * self.net_rad;
                 for s in self.segments.iter().take(self.count) {
                     if tau < s.duration {
                         let r = s.at(tau);
@@ -299,6 +361,47 @@ mod tests {
             // O(dt * accel) at a kink.
             assert!(((b.angle - a.angle) / (2.0 * dt) - r.rate).abs() < 2.0 * dt * lim.max_accel);
             t += 0.0137;
+        }
+    }
+
+    #[test]
+    fn multi_rate_turns_whole_turns_at_each_rate_and_its_angle_is_continuous() {
+        let lim = Limits::default();
+        let d = 1f64.to_radians();
+        let scheme = Scheme::Rates {
+            rates: [30.0 * d, 60.0 * d, -90.0 * d, 0.0],
+            count: 3,
+            turns: 2,
+            dwell_s: 5.0,
+        };
+        let p = Profile::new(scheme, lim).unwrap();
+        assert!((scheme.peak_rate() - 90.0 * d).abs() < 1e-15);
+        // Over two periods: the angle is the rate's integral across the
+        // period's end too (the net turn carried on).
+        check(&p, 2.0 * p.period_s() + 1.0);
+        // Each move's cruise at its rate, and the angle after the moves:
+        // 2 + 2 - 2 turns a period.
+        let mut seen = [false; 3];
+        let mut t = 0.0;
+        while t < p.period_s() {
+            let r = p.at(t).rate;
+            for (s, want) in seen.iter_mut().zip([30.0, 60.0, -90.0]) {
+                *s |= (r - want * d).abs() < 1e-12;
+            }
+            t += 0.01;
+        }
+        assert_eq!(seen, [true; 3]);
+        let turn = core::f64::consts::TAU;
+        assert!((p.at(p.period_s() - 1.0).angle - 2.0 * turn).abs() < 1e-9);
+        assert!((p.at(2.0 * p.period_s() - 1.0).angle - 4.0 * turn).abs() < 1e-9);
+        for bad in [0u8, 5] {
+            let s = Scheme::Rates {
+                rates: [d; MAX_RATES],
+                count: bad,
+                turns: 1,
+                dwell_s: 1.0,
+            };
+            assert!(Profile::new(s, lim).is_err());
         }
     }
 

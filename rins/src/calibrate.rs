@@ -303,7 +303,25 @@ pub fn calibrate_with(
                 .map(|s| **s)
                 .collect()
         }
-        Method::Multirate | Method::Auto => segs.to_vec(),
+        Method::Multirate | Method::Auto => {
+            // The first still phase (the bias) and every turning one: a
+            // multi-rate run's later dwells add nothing the first does not.
+            let chosen: Vec<Segment> = first_static
+                .into_iter()
+                .chain(rotating.iter().copied())
+                .copied()
+                .collect();
+            if chosen.len() > core_nav::calib::MAX_PHASES {
+                bail!(
+                    "{} phases (a still one and {} turning) between --from-s and --to-s; a calibration takes at most {}: narrow the window ({})",
+                    chosen.len(),
+                    rotating.len(),
+                    core_nav::calib::MAX_PHASES,
+                    describe(&chosen)
+                );
+            }
+            chosen
+        }
     };
     let mut phases = vec![];
     for s in &chosen {

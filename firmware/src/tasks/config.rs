@@ -34,10 +34,8 @@ pub fn nav_config(c: &BoardConfig, t: &Tuning) -> NavConfig {
     let lat = f64::from(c.lat_e7) * 1e-7;
     let h = f64::from(c.height_mm) * 1e-3;
     let rate = match scheme(c) {
-        core_nav::scheme::Scheme::Still => 0.0,
-        core_nav::scheme::Scheme::Continuous { rate }
-        | core_nav::scheme::Scheme::Reciprocating { rate, .. }
-        | core_nav::scheme::Scheme::Indexed { rate, .. } => rate,
+        core_nav::scheme::Scheme::Continuous { rate } => rate,
+        s => s.peak_rate(),
     };
     NavConfig {
         lat_deg: lat,

@@ -55,6 +55,9 @@ pub enum SchemeArg {
     Reciprocating,
     /// --positions positions with --dwell-s dwell.
     Indexed,
+    /// --turns whole turns at each --rate-dps in turn, --dwell-s after
+    /// each (the phases of a multi-rate calibration).
+    Multirate,
     /// No rotation (`none`: the conventional twin of a rotary run).
     #[value(alias = "none")]
     Still,
@@ -67,6 +70,7 @@ impl SchemeArg {
             Self::Continuous => "continuous",
             Self::Reciprocating => "reciprocating",
             Self::Indexed => "indexed",
+            Self::Multirate => "multirate",
             Self::Still => "still",
         }
     }

@@ -35,9 +35,10 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "z")]
     pub axis: AxisArg,
     /// Table rate, deg/s (the cruise rate of moves for reciprocating /
-    /// indexed; default 30; a still table has none).
-    #[arg(long)]
-    pub rate_dps: Option<f64>,
+    /// indexed; default 30; a still table has none); multirate takes
+    /// 1-4 signed rates in turn: --rate-dps 30,60,90,-90.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    pub rate_dps: Vec<f64>,
     /// Run length, s.
     #[arg(long, default_value_t = 120.0)]
     pub duration_s: f64,
@@ -50,13 +51,15 @@ pub struct Args {
     /// Gravity at the site, m/s^2 (default: WGS-84 normal gravity).
     #[arg(long)]
     pub gravity_mps2: Option<f64>,
-    /// Whole turns each way (reciprocating only; default 1).
+    /// Whole turns each way (reciprocating; default 1), at each rate
+    /// (multirate; default 4).
     #[arg(long)]
     pub turns: Option<u32>,
     /// Positions (indexed only): 2 or 4 (default 4).
     #[arg(long)]
     pub positions: Option<u8>,
-    /// Dwell at each position (indexed only), s (default 10).
+    /// Dwell at each position (indexed) or after each rate (multirate),
+    /// s (default 10).
     #[arg(long)]
     pub dwell_s: Option<f64>,
     /// A physical effect, NAME=VALUE (repeatable); `--list-effects` shows them.
@@ -130,28 +133,45 @@ impl Args {
     /// The rotation scheme; a scheme's option given to another scheme is
     /// refused, not ignored.
     fn rotation(&self) -> Result<Scheme> {
-        let rate = self.rate_dps.unwrap_or(30.0).to_radians();
+        use core_nav::scheme::MAX_RATES;
+        let multirate = matches!(self.scheme, SchemeArg::Multirate);
         let (reciprocating, indexed) = (
             matches!(self.scheme, SchemeArg::Reciprocating),
             matches!(self.scheme, SchemeArg::Indexed),
         );
-        if self.rate_dps.is_some() && matches!(self.scheme, SchemeArg::Still) {
+        if !self.rate_dps.is_empty() && matches!(self.scheme, SchemeArg::Still) {
             bail!("--rate-dps does not apply to --scheme still: the table does not turn");
         }
-        for (given, name, applies) in [
-            (self.turns.is_some(), "--turns", reciprocating),
-            (self.positions.is_some(), "--positions", indexed),
-            (self.dwell_s.is_some(), "--dwell-s", indexed),
+        match (multirate, self.rate_dps.len()) {
+            (true, n) if !(1..=MAX_RATES).contains(&n) => bail!(
+                "--scheme multirate takes 1 to {MAX_RATES} rates (--rate-dps 30,60,90); {n} given"
+            ),
+            (false, n) if n > 1 => bail!(
+                "--scheme {} takes one --rate-dps; several are for --scheme multirate",
+                self.scheme.name()
+            ),
+            _ => {}
+        }
+        let rate = self.rate_dps.first().copied().unwrap_or(30.0).to_radians();
+        for (given, name, applies, what) in [
+            (
+                self.turns.is_some(),
+                "--turns",
+                reciprocating || multirate,
+                "reciprocating and multirate",
+            ),
+            (self.positions.is_some(), "--positions", indexed, "indexed"),
+            (
+                self.dwell_s.is_some(),
+                "--dwell-s",
+                indexed || multirate,
+                "indexed and multirate",
+            ),
         ] {
             if given && !applies {
                 bail!(
-                    "{name} does not apply to --scheme {}: it is for {}",
-                    self.scheme.name(),
-                    if name == "--turns" {
-                        "reciprocating"
-                    } else {
-                        "indexed"
-                    }
+                    "{name} does not apply to --scheme {}: it is for {what}",
+                    self.scheme.name()
                 );
             }
         }
@@ -167,6 +187,18 @@ impl Args {
                 positions: self.positions.unwrap_or(4),
                 dwell_s: self.dwell_s.unwrap_or(10.0),
             },
+            SchemeArg::Multirate => {
+                let mut rates = [0.0; MAX_RATES];
+                for (r, d) in rates.iter_mut().zip(&self.rate_dps) {
+                    *r = d.to_radians();
+                }
+                Scheme::Rates {
+                    rates,
+                    count: self.rate_dps.len() as u8,
+                    turns: self.turns.unwrap_or(4),
+                    dwell_s: self.dwell_s.unwrap_or(10.0),
+                }
+            }
         })
     }
 
