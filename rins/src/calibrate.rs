@@ -134,6 +134,10 @@ pub enum Method {
     /// Pick from the phases found: multirate with 3+ rates, reciprocating
     /// with both directions, else earth.
     Auto,
+    /// Rests in many attitudes (hand-turned or a tri-axial table):
+    /// accelerometer and gyro scale, misalignment and bias
+    /// ([`crate::multipos`]).
+    Multiposition,
 }
 
 /// Accumulates the IMU samples of `seg` into a phase.
@@ -303,6 +307,9 @@ pub fn calibrate_with(
                 .map(|s| **s)
                 .collect()
         }
+        Method::Multiposition => bail!(
+            "a multi-position session is calibrated by rins::multipos::calibrate (rins calibrate --method multiposition)"
+        ),
         Method::Multirate | Method::Auto => {
             // The first still phase (the bias) and every turning one: a
             // multi-rate run's later dwells add nothing the first does not.

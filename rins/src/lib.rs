@@ -16,6 +16,7 @@ pub mod diagnose;
 pub mod import;
 pub mod link;
 pub mod memory;
+pub mod multipos;
 pub mod nav;
 pub mod outages;
 pub mod plot;

@@ -145,6 +145,9 @@ const CALIBRATE: Walk = Walk {
         same("--rate-dps", &["{rec}", "--rate-dps", "30"], &["{rec}"], &[]),
         changes("--sensor", &["{rec}", "--sensor", "nav440"], &["{rec}"], &[]),
         refused("--sensor", &["{rec}", "--sensor", "no-such-sensor"], &["no-such-sensor"]),
+        refused("--rest-s", &["{rec}", "--rest-s", "50"], &["--rest-s", "multiposition"]),
+        elsewhere("--rest-s", "cli_multipos.rs", "a_real_hand_turned_session_calibrates_from_the_cli"),
+        refused("--method", &["{rec}", "--method", "multiposition"], &["rests found"]),
     ],
 };
 

@@ -24,9 +24,10 @@ pub struct Args {
     /// Use data from this time on, s.
     #[arg(long, default_value_t = 0.0)]
     pub from_s: f64,
-    /// Use data up to this time, s (default: 120 s, the power-up calibration).
-    #[arg(long, default_value_t = 120.0)]
-    pub to_s: f64,
+    /// Use data up to this time, s (default: 120 s, the power-up
+    /// calibration; multiposition: the whole session).
+    #[arg(long)]
+    pub to_s: Option<f64>,
     /// The commanded table rate, deg/s: steady phases must reach it within 2 %.
     #[arg(long)]
     pub rate_dps: Option<f64>,
@@ -35,6 +36,11 @@ pub struct Args {
     /// `[imu] model`; unknown, white noise only).
     #[arg(long)]
     pub sensor: Option<String>,
+    /// How long a multi-position session rests at its start, s (the
+    /// reference the rests are found against; multiposition only,
+    /// default 30).
+    #[arg(long)]
+    pub rest_s: Option<f64>,
 }
 
 /// Runs `rins calibrate`.
@@ -42,13 +48,19 @@ pub fn run(a: &Args) -> Result<()> {
     let rec = super::plausible(read_recording(&a.rec)?, None, a.keep_implausible);
     rec.require_accel("rins calibrate")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
+    if a.method == Method::Multiposition {
+        return multiposition(a, &rec);
+    }
+    if a.rest_s.is_some() {
+        anyhow::bail!("--rest-s is for --method multiposition (the session's first rest)");
+    }
     let sensor = match &a.sensor {
         Some(n) => Some(hal_sim::sensor::resolve(n)?),
         None => None,
     };
     let r = calibrate::calibrate_with(
         &rec,
-        (a.from_s, a.to_s),
+        (a.from_s, a.to_s.unwrap_or(120.0)),
         a.method,
         a.rate_dps.map(f64::to_radians),
         sensor.as_ref(),
@@ -57,6 +69,30 @@ pub fn run(a: &Args) -> Result<()> {
     print!("{}", calibrate::report(&r));
     if let Some(p) = &a.json {
         write_file(p, &serde_json::to_string_pretty(&calibrate::to_json(&r))?)?;
+        println!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `rins calibrate --method multiposition`.
+fn multiposition(a: &Args, rec: &recording::Recording) -> Result<()> {
+    for (given, flag) in [
+        (a.sensor.is_some(), "--sensor"),
+        (a.rate_dps.is_some(), "--rate-dps"),
+    ] {
+        if given {
+            anyhow::bail!("{flag} does not apply to --method multiposition (a session of rests, no table rate)");
+        }
+    }
+    let to = a.to_s.unwrap_or(f64::INFINITY);
+    let m = rins::multipos::calibrate(rec, (a.from_s, to), a.rest_s.unwrap_or(30.0))
+        .with_context(|| format!("calibrating {}", a.rec.display()))?;
+    print!("{}", rins::multipos::report(&m));
+    if let Some(p) = &a.json {
+        write_file(
+            p,
+            &serde_json::to_string_pretty(&rins::multipos::to_json(&m))?,
+        )?;
         println!("wrote {}", p.display());
     }
     Ok(())
