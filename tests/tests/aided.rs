@@ -760,3 +760,22 @@ fn a_smooth_pull_away_from_a_stop_is_not_called_still() {
     println!("{still} still rows, {} refuted", run.still_refuted);
     assert!(still > 500 && run.still_refuted > 0);
 }
+
+#[test]
+fn an_outage_free_drive_re_initialises_nowhere_and_blames_no_outage() {
+    // The null for re-initialisation: city drives with every fix
+    // delivered, both sensors (our simulator only). Nothing re-initialises,
+    // the summary names no outage and no re-initialisation, and the NIS
+    // is measured (fixes were used).
+    for (p, seed) in [(ImuSpec::nav440(), 11), (ImuSpec::icm42688(), 12)] {
+        let rec = city_drive(&p, true, seed, &[], 150.0);
+        let run = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
+        let s = aided::summary(&rec, &run);
+        let text = s.text();
+        print!("{text}");
+        assert_eq!(run.reinits, 0, "{}: {text}", p.name);
+        assert!(s.reinit_at.is_empty() && s.outages.is_empty(), "{text}");
+        assert!(!text.contains("re-initialised at"), "{text}");
+        assert!(s.nis_mean_per_dof.is_some(), "{text}");
+    }
+}
