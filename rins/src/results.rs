@@ -18,6 +18,8 @@ pub struct Setting {
     pub study_runs: usize,
     /// Null runs per grade (`rins study --nulls`).
     pub study_nulls: usize,
+    /// Drives of the aided coverage study.
+    pub coverage_drives: u64,
 }
 
 /// The book's setting.
@@ -27,6 +29,7 @@ pub const BOOK: Setting = Setting {
     outage_drives: 20,
     study_runs: 10,
     study_nulls: 100,
+    coverage_drives: crate::coverage::AIDED_SEEDS,
 };
 
 /// A setting that runs in minutes: it checks that every table is still
@@ -37,6 +40,7 @@ pub const SMALL: Setting = Setting {
     outage_drives: 1,
     study_runs: 1,
     study_nulls: 2,
+    coverage_drives: 2,
 };
 
 /// The commit the tables come from: `git describe`'s short hash, with

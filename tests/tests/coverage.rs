@@ -33,3 +33,44 @@ fn the_books_coverage_table_is_the_studys_and_says_which_hold() {
         );
     }
 }
+
+/// The aided study's rows that do not hold in the book's table (its 60
+/// drives: `rins results --only coverage-aided`), each with the reason in
+/// the book's chapter (issue 46, open): the time offset's sigma is a sixth
+/// of its spread; the position at an outage's end has the right spread
+/// (0.7-1.0) but heavy tails (88-92 % inside).
+const OPEN_AIDED: &[&str] = &[
+    "IMU-to-GNSS time offset (--estimate-time-offset)",
+    "position north at a 20 s outage's end",
+    "position east at a 20 s outage's end",
+];
+
+#[test]
+fn the_aided_study_runs_and_the_book_says_which_of_its_rows_hold() {
+    // CI's seeded subset: two drives run the study's whole chain (the
+    // book's sixty take minutes); the book's table must be the book's
+    // setting, name every estimate, and hold or not as OPEN_AIDED says.
+    let rows = rins::coverage::aided_study(&[1, 2], &|| {}).unwrap();
+    assert_eq!(rows.len(), 6);
+    let book = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../docs/src/results/coverage-aided.md"),
+    )
+    .unwrap();
+    assert!(
+        book.contains("(the book's setting)"),
+        "regenerate at the book's setting"
+    );
+    for r in &rows {
+        let line = book
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} |", r.estimate)))
+            .unwrap_or_else(|| panic!("the book's table has no row {}", r.estimate));
+        let holds = line.trim_end().ends_with("| yes |");
+        assert_eq!(
+            holds,
+            !OPEN_AIDED.contains(&r.estimate.as_str()),
+            "{line} (update OPEN_AIDED and the book's chapter)"
+        );
+    }
+}

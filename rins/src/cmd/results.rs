@@ -21,18 +21,19 @@ pub struct Args {
     #[arg(long)]
     pub small: bool,
     /// Only these tables (comma-separated: reproduce, outages, study,
-    /// study-real-noise, coverage); default: all.
+    /// study-real-noise, coverage, coverage-aided); default: all.
     #[arg(long, value_delimiter = ',')]
     pub only: Option<Vec<String>>,
 }
 
 /// The tables, by the names `--only` takes.
-const TABLES: [&str; 5] = [
+const TABLES: [&str; 6] = [
     "reproduce",
     "outages",
     "study",
     "study-real-noise",
     "coverage",
+    "coverage-aided",
 ];
 
 /// Runs `rins results`.
@@ -86,6 +87,13 @@ pub fn run(a: &Args) -> Result<()> {
             coverage()?,
         )?;
     }
+    if want("coverage-aided") {
+        write(
+            "coverage-aided.md",
+            "rins results --only coverage-aided".into(),
+            coverage_aided(&set)?,
+        )?;
+    }
     if !want("study-real-noise") {
         return Ok(());
     }
@@ -102,19 +110,39 @@ pub fn run(a: &Args) -> Result<()> {
     Ok(())
 }
 
+/// Runs `study` with a progress bar `name` that counts `total` steps.
+fn counted<T>(
+    name: &str,
+    total: u64,
+    study: impl FnOnce(&(dyn Fn() + Sync)) -> Result<T>,
+) -> Result<T> {
+    let pb = progress_bar(name);
+    let done = std::sync::atomic::AtomicU64::new(0);
+    let r = study(&|| {
+        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+        pb.set_position(n * 1000 / total.max(1));
+    });
+    pb.finish_and_clear();
+    r
+}
+
 /// The coverage study over its seeds (the same in every setting: the
 /// whole study takes seconds).
 fn coverage() -> Result<String> {
     let seeds: Vec<u64> = (0..rins::coverage::SEEDS).collect();
-    let pb = progress_bar("coverage");
-    let done = std::sync::atomic::AtomicU64::new(0);
-    let total = 3 * seeds.len() as u64;
-    let rows = rins::coverage::study(&seeds, &|| {
-        let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-        pb.set_position(n * 1000 / total);
+    let rows = counted("coverage", 3 * seeds.len() as u64, |done| {
+        rins::coverage::study(&seeds, done)
     })?;
-    pb.finish_and_clear();
     Ok(rins::coverage::table(&rows))
+}
+
+/// The aided coverage study over the setting's drives.
+fn coverage_aided(set: &Setting) -> Result<String> {
+    let seeds: Vec<u64> = (1..=set.coverage_drives).collect();
+    let rows = counted("coverage (aided)", seeds.len() as u64, |done| {
+        rins::coverage::aided_study(&seeds, done)
+    })?;
+    Ok(rins::coverage::aided_table(&rows))
 }
 
 fn reproduce(sensor: &str, set: &Setting) -> Result<(String, String)> {
