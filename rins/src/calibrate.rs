@@ -196,6 +196,9 @@ pub struct Calibration {
     pub phases: Vec<(Segment, Phase)>,
     /// The unknowns solved for.
     pub unknowns: Unknowns,
+    /// Whether the phases' temperatures were recorded (the drift's
+    /// temperature part counted).
+    pub drift_temperature: bool,
     /// The sensor whose drift between phases (bias instability, rate
     /// random walk, temperature) the sigmas of `M k`, `q` and `a` count
     /// besides white noise; `None`: white noise only (the drift unknown).
@@ -363,8 +366,8 @@ pub fn calibrate_with(
             .as_deref()
             .and_then(hal_sim::imu::ImuSpec::by_model)
     });
+    let spans = spans(rec, &phases);
     if let Some(spec) = &spec {
-        let spans = spans(rec, &phases);
         let g = core_nav::calib::gains(&ps, unknowns).map_err(|e| anyhow!("{e}"))?;
         let d = spec.gyro.bias_drift().sigma(&g, &spans);
         let add = |v: &mut Vector3<f64>, d: f64| *v = v.map(|x| x.hypot(d));
@@ -382,6 +385,7 @@ pub fn calibrate_with(
         phases,
         unknowns,
         drift_of: spec.map(|s| s.name),
+        drift_temperature: spans.iter().all(|s| s.temp_c.is_some()),
     })
 }
 
@@ -594,7 +598,10 @@ pub fn report(r: &Calibration) -> String {
         );
     }
     s += &match &r.drift_of {
-        Some(n) => format!("  bias: over the phases, at their temperature; the other sigmas count white noise and {n}'s drift between phases (bias instability, rate random walk, temperature)\n"),
+        Some(n) => format!(
+            "  bias: over the phases, at their temperature; the other sigmas count white noise and {n}'s drift between phases (bias instability, rate random walk, {})\n",
+            if r.drift_temperature { "temperature" } else { "not the temperature's: none recorded" }
+        ),
         None => "  bias: over the phases, at their temperature; the other sigmas count white noise only: the sensor's drift between phases is not known (--sensor)\n".into(),
     };
     if !q_solved || !a_solved {

@@ -364,3 +364,26 @@ fn a_reciprocating_runs_phases_print_the_sensors_noise_not_the_tables() {
         assert!((a / truth - 1.0).abs() < 0.2, "{a} against {truth}: {text}");
     }
 }
+
+#[test]
+fn the_drift_sigma_says_when_no_temperature_was_recorded() {
+    // The M k sigma counts the sensor file's temperature coefficient times
+    // the phases' recorded temperatures; a log without temperatures
+    // cannot, and the report says so instead of a sigma that looks whole.
+    let spec = hal_sim::sensor::resolve("icm42688").unwrap();
+    let mut c = SimConfig::new(spec.clone(), Axis::Z, 120.0);
+    c.scheme = Scheme::Continuous { rate: 30.0 * DEG };
+    c.static_s = 60.0;
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let mut bare = rec.clone();
+    bare.imu.iter_mut().for_each(|r| r.temp_c = None);
+    let run = |r: &recording::Recording| {
+        rins::calibrate::calibrate_with(r, (0.0, 120.0), Method::Earth, None, Some(&spec)).unwrap()
+    };
+    let (with, without) = (run(&rec), run(&bare));
+    let text = rins::calibrate::report(&without);
+    assert!(text.contains("none recorded"), "{text}");
+    assert!(!rins::calibrate::report(&with).contains("none recorded"));
+    // The warm-up's share: the sigma without it is smaller.
+    assert!(without.gyro.sigma_m_k.z < 0.8 * with.gyro.sigma_m_k.z);
+}
