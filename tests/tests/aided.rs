@@ -658,6 +658,38 @@ fn a_lever_arm_the_filter_is_not_told_is_found_from_the_fixes() {
 }
 
 #[test]
+fn a_lever_arm_beyond_the_first_search_is_followed_out_and_one_too_far_refused() {
+    // Our simulator only, one city drive as above (antenna 1 m ahead,
+    // 0.8 m up, 2 cm fixes). Told 1.6 m behind it (x = -0.6 m), the first
+    // search (+-1 m) finds its least at an edge and follows the NIS out:
+    // x within 3.5 of its sigmas, as above. Told 4.5 m behind (x = -3.5
+    // m), it still falls 3 m out: refused, saying so.
+    let p = ImuSpec::nav440();
+    let mut c = outages::config(DriveKind::City, &p, true, 3);
+    c.duration_s = 120.0;
+    let d = c.drive.as_mut().unwrap();
+    (d.gnss.sigma_h_m, d.gnss.sigma_v_m) = (0.02, 0.04);
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let told = |x: f64| {
+        let mut r = rec.clone();
+        let m = r.moving.as_mut().unwrap().gnss_meta.as_mut().unwrap();
+        m.antenna_b_m = [x, 0.0, -0.8];
+        r
+    };
+    let (near, far) = (told(-0.6), told(-3.5));
+    let (found, refused) = std::thread::scope(|s| {
+        let a = s.spawn(|| aided::lever::estimate(&near, &opts(&p), &mut |_| {}));
+        let b = s.spawn(|| aided::lever::estimate(&far, &opts(&p), &mut |_| {}));
+        (a.join().unwrap(), b.join().unwrap())
+    });
+    let found = found.unwrap();
+    let sigma = found.sigma_m[0].unwrap();
+    assert!((found.b_m[0] - 1.0).abs() < 3.5 * sigma, "{found:?}");
+    let e = refused.unwrap_err().to_string();
+    assert!(e.contains("along x") && e.contains("+-3 m"), "{e}");
+}
+
+#[test]
 fn the_sigma_columns_nees_is_what_a_user_recomputes_from_trajectory_csv() {
     // The summary's 9-dof diagonal NEES, recomputed as a user would: the
     // trajectory.csv text, the truth rows once a second, the nine errors

@@ -16,6 +16,10 @@ use recording::Recording;
 /// How far from the given arm the first search looks, m (each axis): a
 /// car's roof antenna sits about a metre from a console IMU.
 pub const SPAN_M: f64 = 1.0;
+/// How far a first search whose least NIS is at its edge walks on, m
+/// from the given arm (each axis): an arm this far from where the
+/// recording puts it is a wrong recording, not a lever arm to find.
+pub const MAX_SPAN_M: f64 = 3.0;
 /// The first search's step, m.
 const COARSE_M: f64 = 0.1;
 /// The second search's step, m (about the first's least point, +-5
@@ -55,8 +59,9 @@ const PASSES: [(usize, bool); 6] = [
 /// each axis's own curvature, which holds the others fixed.
 ///
 /// # Errors
-/// A run that fails, no fix used, or a least NIS at the first search's
-/// edge (the arm lies beyond [`SPAN_M`] of the given one).
+/// A run that fails, no fix used, or a least NIS still falling at
+/// [`MAX_SPAN_M`] from the given arm (the first search looks
+/// [`SPAN_M`] each way and walks on while the NIS falls).
 pub fn estimate(
     rec: &Recording,
     opt: &AidedOptions,
@@ -77,21 +82,18 @@ pub fn estimate(
     for (axis, first) in PASSES {
         let rough = match first {
             true => {
-                let (rough, _, grid) = nis.line(&arm, axis, given[axis], COARSE_M, coarse)?;
-                if rough.is_nan() {
-                    // Least at an edge: an arm beyond the span only when
-                    // the NIS says so (3 sigma below the given arm's);
-                    // else the axis is flat there: unresolved.
-                    if edge_evidence(&grid, coarse) < EDGE_SIGMAS * EDGE_SIGMAS {
-                        continue;
-                    }
-                    bail!(
-                        "the fixes' NIS is least at the search's edge along {}: the lever arm is beyond +-{SPAN_M} m of {:?}",
-                        ["x", "y", "z"][axis],
-                        given
-                    );
+                let (rough, _, mut grid) = nis.line(&arm, axis, given[axis], COARSE_M, coarse)?;
+                if !rough.is_nan() {
+                    rough
+                } else if edge_evidence(&grid, coarse) < EDGE_SIGMAS * EDGE_SIGMAS {
+                    // Least at an edge but not 3 sigma below the given
+                    // arm's: the axis is flat there, unresolved.
+                    continue;
+                } else {
+                    // The NIS says the arm lies beyond the span: follow
+                    // it out (the other axes still wrong bend it there).
+                    nis.walk_out(&arm, axis, given[axis], &mut grid)?
                 }
-                rough
             }
             false if resolved[axis] => arm[axis],
             false => continue,
@@ -172,6 +174,45 @@ impl Nis<'_> {
         }
         let (x, s) = least(&grid, step).unwrap_or((f64::NAN, f64::INFINITY));
         Ok((x, s, grid))
+    }
+
+    /// Extends a coarse `grid` along `axis` (sorted, its least NIS at an
+    /// edge) outwards a step at a time until the NIS rises again; the
+    /// least point ([`least`]).
+    ///
+    /// # Errors
+    /// A run that fails, or still falling at [`MAX_SPAN_M`] from `given`.
+    fn walk_out(
+        &mut self,
+        arm: &[f64; 3],
+        axis: usize,
+        given: f64,
+        grid: &mut Grid,
+    ) -> Result<f64> {
+        let down = grid.first().map(|g| g.1) <= grid.last().map(|g| g.1);
+        let max_steps = ((MAX_SPAN_M - SPAN_M) / COARSE_M).round() as usize;
+        for _ in 0..max_steps {
+            let edge = if down { grid.first() } else { grid.last() };
+            let Some(&(x, y, _)) = edge else { break };
+            let mut l = *arm;
+            l[axis] = x + if down { -COARSE_M } else { COARSE_M };
+            let (total, per) = self.at(&l)?;
+            if down {
+                grid.insert(0, (l[axis], total, per));
+            } else {
+                grid.push((l[axis], total, per));
+            }
+            if total > y {
+                let (v, _) = least(grid, COARSE_M).unwrap_or((f64::NAN, f64::INFINITY));
+                if v.is_finite() {
+                    return Ok(v);
+                }
+            }
+        }
+        bail!(
+            "the fixes' NIS is least at the search's edge along {}: the lever arm is beyond +-{MAX_SPAN_M} m of {given} m",
+            ["x", "y", "z"][axis],
+        )
     }
 
     /// The resolved axes' marginal 1-sigmas: `2 H^-1`, `H` the total NIS's

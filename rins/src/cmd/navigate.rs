@@ -101,7 +101,7 @@ pub struct Args {
     #[arg(long, requires = "gnss")]
     pub estimate_time_offset: bool,
     /// Estimate the antenna's lever arm in b (a pre-pass along each axis,
-    /// within 1 m of the sensor file's or meta.toml's) and navigate with
+    /// within 3 m of the sensor file's or meta.toml's) and navigate with
     /// it; an axis the motion does not turn about is kept as given.
     #[arg(long, requires = "gnss")]
     pub estimate_lever_arm: bool,
