@@ -258,20 +258,12 @@ pub fn parse(text: &str, what: &str) -> Result<ImuSpec, SensorError> {
     let latency_s = r.signed("gyro", "latency_s")?.unwrap_or(0.0);
     let accel_latency_s = r.signed("accel", "latency_s")?;
     r.known(Some("timing"), &["jitter_s"])?;
-    let jitter_s = r.num("timing", "jitter_s")?.unwrap_or(0.0);
-    let d = TempSpec::default();
+    let jitter_s = r.term("timing", "jitter_s")?;
     r.known(
         Some("temperature"),
         &["ambient_c", "warmup_c", "warmup_tau_s", "lsb_c"],
     )?;
-    let temp = TempSpec {
-        ambient_c: r.num("temperature", "ambient_c")?.unwrap_or(d.ambient_c),
-        warmup_c: r.num("temperature", "warmup_c")?.unwrap_or(d.warmup_c),
-        warmup_tau_s: r
-            .num("temperature", "warmup_tau_s")?
-            .unwrap_or(d.warmup_tau_s),
-        lsb_c: r.num("temperature", "lsb_c")?.unwrap_or(d.lsb_c),
-    };
+    let temp = r.temperature()?;
     r.known(Some("mounting"), &["imu_to_base_deg", "antenna_b_m"])?;
     let mounting = Mounting {
         imu_to_base_deg: r.vec3("mounting", "imu_to_base_deg")?.unwrap_or([0.0; 3]),
@@ -570,6 +562,30 @@ impl Reader<'_> {
         Ok(x.unwrap_or(0.0))
     }
 
+    /// The `[temperature]` table. A `/1` file's absent key is the
+    /// simulator's default board ([`TempSpec::default`]); a `/2` file's
+    /// is unknown: no warm-up, no reading's rounding, and the default
+    /// room (a warm-up's time constant and ambient have no "none").
+    fn temperature(&self) -> Result<TempSpec, SensorError> {
+        let d = TempSpec::default();
+        let get = |key: &str, default: f64, none: f64| -> Result<f64, SensorError> {
+            Ok(match self.num("temperature", key)? {
+                Some(x) => x,
+                None if self.v2 => {
+                    self.mark("temperature", key);
+                    none
+                }
+                None => default,
+            })
+        };
+        Ok(TempSpec {
+            ambient_c: get("ambient_c", d.ambient_c, d.ambient_c)?,
+            warmup_c: get("warmup_c", d.warmup_c, 0.0)?,
+            warmup_tau_s: get("warmup_tau_s", d.warmup_tau_s, d.warmup_tau_s)?,
+            lsb_c: get("lsb_c", d.lsb_c, 0.0)?,
+        })
+    }
+
     fn vec3(&self, table: &str, key: &str) -> Result<Option<[f64; 3]>, SensorError> {
         let Some(t) = self.table(Some(table))? else {
             return Ok(None);
@@ -831,10 +847,17 @@ pub fn write_with(spec: &ImuSpec, from: &Provenance, comment: &[String]) -> Stri
         line(&mut s, "accel", "latency_s", l);
     }
     let t = &spec.temp;
-    s.push_str(&format!(
-        "\n[timing]\njitter_s = {:?}\n\n[temperature]\nambient_c = {:?}\nwarmup_c = {:?}\nwarmup_tau_s = {:?}\nlsb_c = {:?}\n",
-        spec.jitter_s, t.ambient_c, t.warmup_c, t.warmup_tau_s, t.lsb_c
-    ));
+    s.push_str("\n[timing]\n");
+    line(&mut s, "timing", "jitter_s", spec.jitter_s);
+    s.push_str("\n[temperature]\n");
+    for (key, v) in [
+        ("ambient_c", t.ambient_c),
+        ("warmup_c", t.warmup_c),
+        ("warmup_tau_s", t.warmup_tau_s),
+        ("lsb_c", t.lsb_c),
+    ] {
+        line(&mut s, "temperature", key, v);
+    }
     let m = &spec.mounting;
     s.push_str(&format!(
         "\n[mounting]\nimu_to_base_deg = {:?}\n",
@@ -1013,9 +1036,23 @@ mod tests {
             assert!(s.unknown.contains(&t.to_string()), "{t}: {:?}", s.unknown);
         }
         assert!(!s.unknown.contains(&terms::GYRO_NOISE.to_string()));
-        // ...while latency, jitter and the mounting are genuine zeros.
+        // ...as are the stamps' jitter and the board's warm-up (simulated
+        // as none, and written back as unknown)...
+        for t in [
+            "timing.jitter_s",
+            "temperature.warmup_c",
+            "temperature.lsb_c",
+        ] {
+            assert!(s.unknown.contains(&t.to_string()), "{t}: {:?}", s.unknown);
+        }
+        assert_eq!((s.jitter_s, s.temp.warmup_c), (0.0, 0.0));
+        let back = write(&s, &[]);
+        assert!(back.contains("jitter_s = \"unknown\""), "{back}");
+        assert!(back.contains("warmup_c = \"unknown\""), "{back}");
+        // ...while the latency (the stamps are the samples' instants
+        // unless said) and the mounting are zeros by convention.
         assert!(!s.unknown.iter().any(|u| u.ends_with("latency_s")));
-        assert_eq!((s.latency_s, s.jitter_s), (0.0, 0.0));
+        assert_eq!(s.latency_s, 0.0);
         let e = s.require(&terms::FILTER, "the aided filter").unwrap_err();
         assert!(
             e.0.contains(terms::GYRO_FLOOR) && !e.0.contains(terms::GYRO_NOISE),

@@ -1,8 +1,9 @@
 //! An IMU CSV described by a column map (`rins-columns/1`, TOML): which
 //! column holds what, in which unit, on which clock. Reads the file,
-//! drops a log's cut first and last lines and the rows a logger repeats
-//! when it polls faster than the sensor (both counted), and gives each
-//! distinct sample its first sighting's time.
+//! drops a log's cut first and last lines and, when the logger polls
+//! faster than the sensor (its rows come faster than the sensor's rate),
+//! the rows it repeats (both counted); each distinct sample keeps its
+//! first sighting's time.
 //!
 //! ```toml
 //! format = "rins-columns/1"
@@ -90,6 +91,11 @@ pub struct RawSample {
     pub accel_mps2: [f64; 3],
 }
 
+/// How many times the sensor's nominal rate a log's rows must come at
+/// for a repeated row to be a stale read (a logger polling faster than
+/// its sensor), not a sample: clocks differ by far less than this.
+pub const OVERSAMPLED: f64 = 1.1;
+
 /// What reading the file counted.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImuCsv {
@@ -99,7 +105,8 @@ pub struct ImuCsv {
     /// line ends as stored and as CRLF (for the tag file's receive
     /// times), repeats included.
     pub rows: Vec<(f64, u64, u64)>,
-    /// Rows that repeated the previous row's six values (dropped).
+    /// Rows that repeated the previous row's six values in a log that
+    /// polls faster than its sensor (dropped: stale reads).
     pub repeats: usize,
     /// A cut first line (logging began mid-line): dropped.
     pub cut_first: bool,
@@ -252,6 +259,7 @@ impl ColumnMap {
         let mut width = None;
         let (mut lf, mut crlf) = (0u64, 0u64);
         let mut last: Option<[f64; 6]> = None;
+        let mut repeated = vec![];
         let n_lines = lines.len();
         for (k, raw) in lines.iter().enumerate() {
             let ends = raw.ends_with('\n');
@@ -332,12 +340,7 @@ impl ColumnMap {
                 }
             }
             out.rows.push((stamp, lf, crlf));
-            // On the nominal clock every row is a sample (a quantised
-            // still sensor may repeat itself).
-            if last == Some(v) && self.time.is_some() {
-                out.repeats += 1;
-                continue;
-            }
+            repeated.push(last == Some(v));
             last = Some(v);
             let [gx, gy, gz, ax, ay, az] = v;
             out.samples.push(RawSample {
@@ -349,10 +352,32 @@ impl ColumnMap {
         }
         out.len_lf = lf;
         out.len_crlf = crlf;
+        self.drop_stale(&mut out, &repeated);
         if out.samples.len() < 2 {
             bail!("{what}: fewer than two IMU rows");
         }
         Ok(out)
+    }
+
+    /// Drops the rows that repeat the one before (`repeated`, a flag a
+    /// sample) when the log has more rows than the sensor makes samples
+    /// (more than [`OVERSAMPLED`] times `rate_hz` over its stamps): a
+    /// logger polling faster than its sensor reads a sample again. A log
+    /// at the sensor's rate keeps every row (a quantised still sensor
+    /// repeats itself), as one without a time column does.
+    fn drop_stale(&self, out: &mut ImuCsv, repeated: &[bool]) {
+        let span = match (out.rows.first(), out.rows.last()) {
+            (Some(a), Some(b)) => b.0 - a.0,
+            _ => 0.0,
+        };
+        let rows = out.rows.len().saturating_sub(1) as f64;
+        if self.time.is_none() || rows <= OVERSAMPLED * self.rate_hz * span {
+            return;
+        }
+        let mut flags = repeated.iter();
+        out.samples
+            .retain(|_| !flags.next().copied().unwrap_or(false));
+        out.repeats = repeated.iter().filter(|r| **r).count();
     }
 
     /// The fields a row must have: past the highest index the map names
@@ -393,6 +418,24 @@ mod tests {
         assert_eq!(r.samples[0].accel_mps2[2], hal_sim::sensor::G0);
         // Byte ends with CRLF line ends: the cut first line is 10 + 1.
         assert_eq!((r.rows[0].1, r.rows[0].2), (10 + 18, 11 + 19));
+    }
+
+    #[test]
+    fn a_log_at_the_sensors_rate_keeps_a_repeated_row_as_a_sample() {
+        // 10 ms rows of a 100 Hz sensor: the repeat at 110 ms is a
+        // quantised sample, not a stale read (the real ADIS16405 log has
+        // one); the same rows 6 ms apart are a logger polling too fast.
+        let m = ColumnMap::parse(MAP).unwrap();
+        let at = |dt: u32| {
+            (0..4)
+                .map(|k| format!("0,0,1,{},0,0,{}\n", [1, 2, 2, 3][k], 100 + dt * k as u32))
+                .collect::<String>()
+        };
+        let r = m.parse_csv(&at(10), "imu.csv").unwrap();
+        assert_eq!((r.samples.len(), r.repeats), (4, 0));
+        let r = m.parse_csv(&at(6), "imu.csv").unwrap();
+        assert_eq!((r.samples.len(), r.repeats), (3, 1));
+        assert!((r.samples[2].stamp_s - 0.118).abs() < 1e-12);
     }
 
     #[test]
