@@ -251,22 +251,43 @@ pub fn study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
 /// 97 % line.
 pub const AIDED_SEEDS: u64 = 120;
 
+/// The rows of the aided study, in the order [`aided`] gives them.
+const AIDED_ROWS: [&str; 11] = [
+    "antenna lever arm x (--estimate-lever-arm)",
+    "antenna lever arm y (--estimate-lever-arm)",
+    "antenna lever arm z (--estimate-lever-arm)",
+    "IMU-to-GNSS time offset (--estimate-time-offset)",
+    "position north at a 20 s outage's end",
+    "position east at a 20 s outage's end",
+    "velocity north at a 20 s outage's end",
+    "velocity east at a 20 s outage's end",
+    "heading at a 20 s outage's end",
+    "the car's forward axis in b: yaw (--vehicle car)",
+    "the car's forward axis in b: pitch (--vehicle car)",
+];
+
+/// One drive's draws, by [`AIDED_ROWS`].
+type AidedDraws = [Option<Draw>; 11];
+
 /// The aided filter's estimates on one simulated city drive (NAV440 on
 /// the turning table, an RTK-grade receiver at 2 cm whose antenna sits at
 /// 1 m ahead and 0.8 m above while the recording says 0.4 m ahead and
 /// 0.3 m left; the fixes 0.1 s early on the IMU's clock; a 20 s outage at
-/// 60 s): the lever arm's three components (unresolved ones left out),
-/// the time offset, the north and east position at the outage's end;
-/// none when the lever-arm pre-pass refuses.
-fn aided(seed: u64) -> Result<Vec<[Option<Draw>; 6]>> {
+/// 60 s; the base mounted in the car at a rotation drawn per drive,
+/// [`crate::vehicle_study::mounting_deg`]): [`AIDED_ROWS`] (an unresolved
+/// lever-arm component or a forward axis not found left out); none when
+/// the lever-arm pre-pass refuses.
+fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
     use crate::aided::{self, AidedOptions};
     let p = ImuSpec::nav440();
-    let mut c = crate::outages::config_with(
+    let mounting = crate::vehicle_study::mounting_deg(seed);
+    let mut c = crate::outages::config_mounted(
         hal_sim::drive::DriveKind::City,
         &p,
         true,
         seed,
         &[(60.0, 20.0)],
+        mounting,
     );
     c.duration_s = 120.0;
     let truth_lever = [1.0, 0.0, -0.8];
@@ -309,6 +330,14 @@ fn aided(seed: u64) -> Result<Vec<[Option<Draw>; 6]>> {
         &rec,
         &AidedOptions {
             outages: vec![(60.0, 20.0)],
+            ..with_lever.clone()
+        },
+        &mut |_| {},
+    )?;
+    let car = aided::navigate(
+        &rec,
+        &AidedOptions {
+            vehicle: Some(aided::vehicle::Vehicle::Car),
             ..with_lever
         },
         &mut |_| {},
@@ -320,18 +349,44 @@ fn aided(seed: u64) -> Result<Vec<[Option<Draw>; 6]>> {
         .unwrap_or(&[]);
     // The last row before the first fix after the outage (at 80 s).
     let end = run.rows.iter().take_while(|r| r.traj.t_s < 79.5).last();
-    let at_end = |i: usize| {
+    let at_end = |k: usize| {
         let r = end?;
         let tr = recording::moving::truth_at(truth, r.traj.t_s)?;
-        Some(Draw {
-            error: r.traj.ned_m[i] - tr.p_n_m[i],
-            sigma: r.sigma_p_m[i],
+        let (i, t) = (k % 3, &r.traj);
+        Some(match k / 3 {
+            0 => Draw {
+                error: t.ned_m[i] - tr.p_n_m[i],
+                sigma: r.sigma_p_m[i],
+            },
+            1 => Draw {
+                error: t.v_mps[i] - tr.v_n_mps[i],
+                sigma: r.sigma_v_mps[i],
+            },
+            _ => Draw {
+                error: crate::vehicle_study::wrap_deg(t.rph_deg[i] - tr.euler_deg[i]),
+                sigma: r.sigma_att_deg[i],
+            },
         })
     };
     let lev = |i: usize| {
         lever.sigma_m[i].map(|sigma| Draw {
             error: lever.b_m[i] - truth_lever[i],
             sigma,
+        })
+    };
+    let forward = car.vehicle.and_then(|v| v.forward);
+    let fwd = |i: usize| {
+        let f = forward?;
+        let truth = crate::vehicle_study::forward_truth_deg(mounting);
+        Some(match i {
+            0 => Draw {
+                error: crate::vehicle_study::wrap_deg(f.yaw_deg - truth[0]),
+                sigma: f.sigma_yaw_deg,
+            },
+            _ => Draw {
+                error: f.pitch_deg - truth[1],
+                sigma: f.sigma_pitch_deg,
+            },
         })
     };
     Ok(vec![[
@@ -344,6 +399,11 @@ fn aided(seed: u64) -> Result<Vec<[Option<Draw>; 6]>> {
         }),
         at_end(0),
         at_end(1),
+        at_end(3),
+        at_end(4),
+        at_end(8),
+        fwd(0),
+        fwd(1),
     ]])
 }
 
@@ -352,7 +412,7 @@ fn aided(seed: u64) -> Result<Vec<[Option<Draw>; 6]>> {
 /// # Errors
 /// A simulation or an estimate that fails.
 pub fn aided_study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
-    let runs: Vec<Vec<[Option<Draw>; 6]>> = seeds
+    let runs: Vec<Vec<AidedDraws>> = seeds
         .par_iter()
         .map(|s| {
             let r = aided(*s);
@@ -360,15 +420,7 @@ pub fn aided_study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Covera
             r
         })
         .collect::<Result<_>>()?;
-    let names = [
-        "antenna lever arm x (--estimate-lever-arm)",
-        "antenna lever arm y (--estimate-lever-arm)",
-        "antenna lever arm z (--estimate-lever-arm)",
-        "IMU-to-GNSS time offset (--estimate-time-offset)",
-        "position north at a 20 s outage's end",
-        "position east at a 20 s outage's end",
-    ];
-    Ok(names
+    Ok(AIDED_ROWS
         .iter()
         .enumerate()
         .map(|(k, name)| {
@@ -388,7 +440,7 @@ pub fn table(rows: &[Coverage]) -> String {
 
 /// The aided study as a markdown table.
 pub fn aided_table(rows: &[Coverage]) -> String {
-    rows_table("City drives of 120 s, the NAV440 on the turning table, an RTK-grade receiver (2 cm) whose antenna the recording misplaces by 0.6 m and whose fixes come 0.1 s early; a lever-arm component the drive cannot resolve is left out of its row's runs, a drive whose pre-pass refuses (no figure printed) out of every row's.", rows)
+    rows_table("City drives of 120 s, the NAV440 on the turning table, an RTK-grade receiver (2 cm) whose antenna the recording misplaces by 0.6 m and whose fixes come 0.1 s early, the base mounted in the car at a rotation drawn per drive; a lever-arm component the drive cannot resolve, or a forward axis not found (no 20 s of straight driving), is left out of its row's runs, a drive whose pre-pass refuses (no figure printed) out of every row's.", rows)
 }
 
 fn rows_table(what: &str, rows: &[Coverage]) -> String {

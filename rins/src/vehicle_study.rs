@@ -72,9 +72,16 @@ pub fn mounting_deg(seed: u64) -> [f64; 3] {
 }
 
 /// The vehicle's forward axis in `b` for a base mounted at `mounting_deg`
-/// (`c_v_b x_v`).
-fn forward_b(mounting_deg: [f64; 3]) -> Vector3<f64> {
-    hal_sim::drive::mounting(mounting_deg).transpose() * Vector3::x()
+/// (`c_v_b x_v`) as [`crate::aided::vehicle::ForwardReport`] gives it:
+/// its yaw and its pitch up from `b`'s x-y plane, deg.
+pub fn forward_truth_deg(mounting_deg: [f64; 3]) -> [f64; 2] {
+    let x = hal_sim::drive::mounting(mounting_deg).transpose() * Vector3::x();
+    [x.y.atan2(x.x).to_degrees(), (-x.z).asin().to_degrees()]
+}
+
+/// An angle's difference wrapped to +-180 deg.
+pub fn wrap_deg(d: f64) -> f64 {
+    (d + 540.0).rem_euclid(360.0) - 180.0
 }
 
 /// Runs `drives` seeds per sensor from `first_seed`, in parallel.
@@ -134,10 +141,8 @@ fn one(kind: DriveKind, imu: &ImuSpec, seed: u64) -> Result<VehicleRun> {
         }
         nees[k] = s.nees_in_95.unwrap_or(f64::NAN);
         if let Some(f) = s.vehicle.and_then(|v| v.forward) {
-            let x = forward_b(m);
-            let yaw = x.y.atan2(x.x).to_degrees();
-            let pitch = (-x.z).asin().to_degrees();
-            let dyaw = (f.yaw_deg - yaw + 540.0).rem_euclid(360.0) - 180.0;
+            let [yaw, pitch] = forward_truth_deg(m);
+            let dyaw = wrap_deg(f.yaw_deg - yaw);
             forward_sigmas = Some([
                 dyaw.abs() / f.sigma_yaw_deg,
                 (f.pitch_deg - pitch).abs() / f.sigma_pitch_deg,

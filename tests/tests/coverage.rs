@@ -47,7 +47,7 @@ fn the_aided_study_runs_and_the_book_says_which_of_its_rows_hold() {
     // book's sixty take minutes); the book's table must be the book's
     // setting, name every estimate, and hold or not as OPEN_AIDED says.
     let rows = rins::coverage::aided_study(&[1, 2], &|| {}).unwrap();
-    assert_eq!(rows.len(), 6);
+    assert_eq!(rows.len(), 11);
     let book = std::fs::read_to_string(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
             .join("../docs/src/results/coverage-aided.md"),
