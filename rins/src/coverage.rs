@@ -75,30 +75,34 @@ fn sensor() -> Result<ImuSpec> {
     hal_sim::sensor::resolve(SENSOR).map_err(|e| anyhow!("{e}"))
 }
 
-/// `calibrate` on a still minute and a minute turning at 30 deg/s about
-/// z (the board's power-up): bias and M k per axis. The truth is what the
-/// same least squares makes of the sensor's hidden state without noise:
-/// the bias over the phases (its drift, temperature and g-sensitivity
-/// included) and the column the table's rate meets at each phase's rate
-/// and temperature (scale, misalignment and the unsolved nonlinear terms).
-fn calibration(seed: u64) -> Result<Vec<[Draw; 6]>> {
+/// `calibrate` with `method` on a still minute then `scheme` about z, the
+/// run's first `duration_s`: the calibration and the truth of each
+/// quantity the least squares solves (bias, M k, q, asymmetry). The truth
+/// is what the same least squares makes of the sensor's hidden state
+/// without noise: the bias over the phases (its drift, temperature and
+/// g-sensitivity included) and the response the table's rate meets at
+/// each phase's rate and temperature (scale, misalignment and the
+/// nonlinear terms, solved or not).
+fn calibrated(
+    seed: u64,
+    scheme: Scheme,
+    duration_s: f64,
+    method: Method,
+) -> Result<(calibrate::Calibration, [Vector3<f64>; 4])> {
     let spec = sensor()?;
-    let mut c = SimConfig::new(spec.clone(), Axis::Z, 120.0);
-    c.scheme = Scheme::Continuous {
-        rate: 30f64.to_radians(),
-    };
+    let mut c = SimConfig::new(spec.clone(), Axis::Z, duration_s);
+    c.scheme = scheme;
     c.static_s = 60.0;
     c.seed = seed;
     let mut hidden = vec![];
     let rec =
         simulate_observed(&c, &mut |_| {}, &mut |h| hidden.push(*h)).map_err(|e| anyhow!("{e}"))?;
-    let cal = calibrate_with(&rec, (0.0, 120.0), Method::Earth, None, Some(&spec))?;
+    let cal = calibrate_with(&rec, (0.0, duration_s), method, None, Some(&spec))?;
     let ps: Vec<_> = cal.phases.iter().map(|(_, p)| *p).collect();
     let gains = core_nav::calib::gains(&ps, cal.unknowns).map_err(|e| anyhow!("{e}"))?;
     let model = ImuModel::new(spec, seed).gyro;
     let k = Axis::Z.unit::<f64>();
-    let mut truth_b = Vector3::zeros();
-    let mut truth_mk = Vector3::zeros();
+    let mut truth = [Vector3::zeros(); 4];
     let spans = calibrate::spans(&rec, &cal.phases);
     for ((g, span), p) in gains.iter().zip(spans).zip(&ps) {
         let (t0, t1) = (span.t0_s, span.t0_s + span.duration_s);
@@ -116,27 +120,57 @@ fn calibration(seed: u64) -> Result<Vec<[Draw; 6]>> {
         let r = p.rate_radps;
         let zero = Vector3::zeros();
         let response = model.apply(&(k * r), rise, &zero) - model.apply(&zero, rise, &zero) - k * r;
-        truth_b += (bias + response) * g.x;
-        truth_mk += response * g.y;
+        truth[0] += (bias + response) * g.x;
+        truth[1] += response * g.y;
+        truth[2] += response * g.z;
+        truth[3] += response * g.w;
     }
-    let draw = |i: usize, bias: bool| match bias {
-        true => Draw {
-            error: cal.gyro.bias[i] - truth_b[i],
-            sigma: cal.gyro.sigma_bias[i],
-        },
-        false => Draw {
-            error: cal.gyro.m_k[i] - truth_mk[i],
-            sigma: cal.gyro.sigma_m_k[i],
-        },
+    Ok((cal, truth))
+}
+
+/// The draws of quantity `j` (bias, M k, q, asymmetry) on each axis.
+fn cal_draws(cal: &calibrate::Calibration, truth: &[Vector3<f64>; 4], j: usize) -> [Draw; 3] {
+    let g = &cal.gyro;
+    let (est, sigma) = match j {
+        0 => (g.bias, g.sigma_bias),
+        1 => (g.m_k, g.sigma_m_k),
+        2 => (g.q, g.sigma_q),
+        _ => (g.a, g.sigma_a),
     };
-    Ok(vec![[
-        draw(0, true),
-        draw(1, true),
-        draw(2, true),
-        draw(0, false),
-        draw(1, false),
-        draw(2, false),
-    ]])
+    std::array::from_fn(|i| Draw {
+        error: est[i] - truth.get(j).map_or(f64::NAN, |t| t[i]),
+        sigma: sigma[i],
+    })
+}
+
+/// `calibrate` on a still minute and a minute turning at 30 deg/s (the
+/// board's power-up): bias and M k per axis.
+fn calibration(seed: u64) -> Result<Vec<[Draw; 6]>> {
+    let scheme = Scheme::Continuous {
+        rate: 30f64.to_radians(),
+    };
+    let (cal, truth) = calibrated(seed, scheme, 120.0, Method::Earth)?;
+    let [b, m] = [0, 1].map(|j| cal_draws(&cal, &truth, j));
+    Ok(vec![[b[0], b[1], b[2], m[0], m[1], m[2]]])
+}
+
+/// The multi-rate rates, deg/s (the book's: `simulate --scheme multirate
+/// --rate-dps 30,60,90,-90`).
+const MULTIRATE_DPS: [f64; 4] = [30.0, 60.0, 90.0, -90.0];
+
+/// `calibrate --method multirate` on a still minute then four turns at
+/// each of [`MULTIRATE_DPS`] with 10 s dwells: bias, M k, q and the
+/// asymmetry per axis.
+fn multirate(seed: u64) -> Result<Vec<[Draw; 12]>> {
+    let scheme = Scheme::Rates {
+        rates: MULTIRATE_DPS.map(f64::to_radians),
+        count: 4,
+        turns: 4,
+        dwell_s: 10.0,
+    };
+    let (cal, truth) = calibrated(seed, scheme, 200.0, Method::Multirate)?;
+    let d = [0, 1, 2, 3].map(|j| cal_draws(&cal, &truth, j));
+    Ok(vec![std::array::from_fn(|k| d[k / 3][k % 3])])
 }
 
 /// `allan` on 450 s still: each channel's white noise against the
@@ -211,7 +245,7 @@ fn gather<const N: usize>(
 }
 
 /// The study over `seeds` (each estimate one run per seed); `done` is
-/// told after each run (three per seed).
+/// told after each run (four per seed).
 ///
 /// # Errors
 /// A simulation or an estimate that fails.
@@ -228,6 +262,12 @@ pub fn study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
             ),
         };
         rows.push(Coverage::of(what, "calibrate", d));
+    }
+    let mr = gather(seeds, multirate, done)?;
+    let quantities = ["gyro bias", "M k", "q (rate-squared)", "asymmetry"];
+    for (k, d) in mr.iter().enumerate() {
+        let what = format!("{} {}, multi-rate", quantities[k / 3], axes[k % 3]);
+        rows.push(Coverage::of(what, "calibrate --method multirate", d));
     }
     let al = gather(seeds, allan, done)?;
     for (ch, d) in al.iter().enumerate() {

@@ -130,7 +130,7 @@ fn counted<T>(
 /// whole study takes seconds).
 fn coverage() -> Result<String> {
     let seeds: Vec<u64> = (0..rins::coverage::SEEDS).collect();
-    let rows = counted("coverage", 3 * seeds.len() as u64, |done| {
+    let rows = counted("coverage", 4 * seeds.len() as u64, |done| {
         rins::coverage::study(&seeds, done)
     })?;
     Ok(rins::coverage::table(&rows))
