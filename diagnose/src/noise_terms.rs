@@ -70,9 +70,9 @@ pub fn describe(channel: usize, f: &NoiseFit) -> String {
     };
     if f.gm_sigma > 0.0 {
         s += &format!(
-            ", Gauss-Markov {:.2} {lu} over {} s",
+            ", Gauss-Markov {:.2} {lu} over {}",
             f.gm_sigma * level,
-            recording::figures::sig(f.gm_tau_s, 2)
+            recording::figures::duration(f.gm_tau_s, 2)
         );
     }
     if f.rrw > 0.0 {

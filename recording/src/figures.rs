@@ -20,9 +20,27 @@ pub fn sig(x: f64, digits: usize) -> String {
     format!("{x:.decimals$}")
 }
 
+/// A duration `s` (seconds) with `digits` significant digits in the unit
+/// that shows it: "480 ms" under a second, "1.5 s" from one.
+pub fn duration(s: f64, digits: usize) -> String {
+    match s.is_finite() && s.abs() < 1.0 && s != 0.0 {
+        true => format!("{} ms", sig(s * 1e3, digits)),
+        false => format!("{} s", sig(s, digits)),
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    use super::sig;
+    use super::{duration, sig};
+
+    #[test]
+    fn a_duration_under_a_second_prints_in_milliseconds() {
+        assert_eq!(duration(0.48, 2), "480 ms");
+        assert_eq!(duration(0.0036, 2), "3.6 ms");
+        assert_eq!(duration(1.5, 2), "1.5 s");
+        assert_eq!(duration(114.0, 2), "114 s");
+        assert_eq!(duration(f64::NAN, 2), "unknown s");
+    }
 
     #[test]
     fn small_values_keep_their_digits_and_zero_is_only_zero() {
