@@ -21,9 +21,13 @@ pub fn sig(x: f64, digits: usize) -> String {
 }
 
 /// A duration `s` (seconds) with `digits` significant digits in the unit
-/// that shows it: "480 ms" under a second, "1.5 s" from one.
+/// that shows it: "480 ms" under a second, "1.5 s" from one; a
+/// non-finite one as "unknown".
 pub fn duration(s: f64, digits: usize) -> String {
-    match s.is_finite() && s.abs() < 1.0 && s != 0.0 {
+    if !s.is_finite() {
+        return "unknown".into();
+    }
+    match s.abs() < 1.0 && s != 0.0 {
         true => format!("{} ms", sig(s * 1e3, digits)),
         false => format!("{} s", sig(s, digits)),
     }
@@ -33,24 +37,41 @@ pub fn duration(s: f64, digits: usize) -> String {
 mod tests {
     use super::{duration, sig};
 
+    /// Each case: (value, digits, what `f` prints).
+    fn prints(f: fn(f64, usize) -> String, cases: &[(f64, usize, &str)]) {
+        for (x, d, want) in cases {
+            assert_eq!(f(*x, *d), *want, "{x} to {d} digits");
+        }
+    }
+
     #[test]
     fn a_duration_under_a_second_prints_in_milliseconds() {
-        assert_eq!(duration(0.48, 2), "480 ms");
-        assert_eq!(duration(0.0036, 2), "3.6 ms");
-        assert_eq!(duration(1.5, 2), "1.5 s");
-        assert_eq!(duration(114.0, 2), "114 s");
-        assert_eq!(duration(f64::NAN, 2), "unknown s");
+        prints(
+            duration,
+            &[
+                (0.48, 2, "480 ms"),
+                (0.0036, 2, "3.6 ms"),
+                (1.5, 2, "1.5 s"),
+                (114.0, 2, "114 s"),
+                (f64::NAN, 2, "unknown"),
+            ],
+        );
     }
 
     #[test]
     fn small_values_keep_their_digits_and_zero_is_only_zero() {
-        assert_eq!(sig(0.000_062_8, 3), "6.28e-5");
-        assert_eq!(sig(0.0036, 2), "0.0036");
-        assert_eq!(sig(0.4, 2), "0.40");
-        assert_eq!(sig(4.8, 2), "4.8");
-        assert_eq!(sig(163.84, 3), "164");
-        assert_eq!(sig(-2.5e7, 2), "-2.5e7");
-        assert_eq!(sig(0.0, 3), "0");
-        assert_eq!(sig(f64::NAN, 3), "unknown");
+        prints(
+            sig,
+            &[
+                (0.000_062_8, 3, "6.28e-5"),
+                (0.0036, 2, "0.0036"),
+                (0.4, 2, "0.40"),
+                (4.8, 2, "4.8"),
+                (163.84, 3, "164"),
+                (-2.5e7, 2, "-2.5e7"),
+                (0.0, 3, "0"),
+                (f64::NAN, 3, "unknown"),
+            ],
+        );
     }
 }
