@@ -50,6 +50,7 @@ pub mod finding;
 pub mod fisher;
 pub mod locate;
 pub mod model;
+pub mod motion;
 pub mod noise;
 pub mod noise_terms;
 pub mod predict;
@@ -231,6 +232,7 @@ pub fn run(
             break;
         }
     }
+    motion_spread(&p, lib(&p), opts, &noise2, &mut sel);
     let mut dg = report(
         recording_name,
         &p,
@@ -297,6 +299,37 @@ pub fn run(
 
 /// A refused candidate as a person reads it: what it looks like, the size
 /// it would need and why no sensor has it.
+/// The motion model's error in every sigma: where the encoder's track
+/// cannot follow the table, the selected model refitted with the gyro's
+/// centred differences and with the encoder's differences as the motion
+/// instead of the gyro's band-limited derivative
+/// ([`motion::MotionSource`]); each parameter's change between them goes
+/// into its variance (defensible measures of one motion: their spread is
+/// what the choice between them is worth).
+fn motion_spread(
+    p: &Prediction,
+    cands: Vec<Candidate>,
+    opts: &Options,
+    noise: &[Noise; 6],
+    sel: &mut Selection,
+) {
+    if p.track.unfollowed().is_empty() || sel.set.is_empty() {
+        return;
+    }
+    use motion::MotionSource::{Encoder, GyroCentred};
+    for source in [GyroCentred, Encoder] {
+        let mut alt = p.clone();
+        motion::fill(&mut alt, source);
+        let other = Design::build(&alt, cands.clone(), opts, Some(noise)).fit(&sel.set);
+        for (key, i) in sel.fit.index.clone() {
+            if let Some((v, _)) = other.value(key) {
+                let spread = sel.fit.beta[i] - v;
+                sel.fit.cov[(i, i)] += spread * spread;
+            }
+        }
+    }
+}
+
 fn implausible_line(d: &Design, p: &Prediction, imp: &select::Implausible) -> Unexplained {
     let c = &d.cands[imp.cand];
     let b = c.bound();

@@ -9,8 +9,9 @@ pub use recording::track::encoder_quantum;
 use recording::track::EncoderTrack;
 use recording::Recording;
 
-/// The window over which the table's motion is taken from the encoder
-/// angles where the track cannot follow it, s: the default regression
+/// The window over which the encoder's rate is taken where the track
+/// cannot follow the table (the gyro's bias and scale against it), s: the
+/// default regression
 /// block (the fit sees block means; motion faster than a block is
 /// averaged there anyway), long against a stepper's step and resonance
 /// periods (milliseconds to tens of them) and against the encoder's read
@@ -28,19 +29,13 @@ pub struct Prediction {
     pub f: Vec<Vector3<f64>>,
     /// Table angle, rate, acceleration (rad, rad/s, rad/s^2).
     pub theta: Vec<(f64, f64, f64)>,
-    /// The table's mean square rate and its acceleration as regressors of
-    /// the motion's own effects (rad^2/s^2, rad/s^2): the track's where it
-    /// follows the table; where it does not (a stepper's steps between
-    /// reads), the encoder angles' centred differences over
-    /// [`MOTION_WINDOW_S`], the mean square adding the ripple about that
-    /// smooth rate which the table-axis gyro sees (its scatter about it
-    /// over the window, less the gyro's own white noise). A
-    /// track that half-follows motion it cannot see is a regressor with
-    /// noise in it, which shrinks or inflates a fit with a sigma that
-    /// does not know it (errors in variables); a smooth function of the
-    /// reads is not: the motion it misses is noise in the signal, which
-    /// the residual's scatter and so the sigma carry (Berkson).
+    /// The table's rate squared and its acceleration as regressors of the
+    /// motion's own effects (rad^2/s^2, rad/s^2): the track's where it
+    /// follows the table, else from [`Prediction::motion_source`]
+    /// ([`crate::motion`]).
     pub motion: Vec<(f64, f64)>,
+    /// The signal `motion` takes where the track cannot follow the table.
+    pub motion_source: crate::motion::MotionSource,
     /// Temperature change from the first sample, deg C (0 if not recorded).
     pub dtemp: Vec<f64>,
     /// The recording has temperatures.
@@ -92,15 +87,11 @@ impl Prediction {
         self.track.angle(t)
     }
 
-    /// The table's rate and acceleration at `t` (s) from the encoder
-    /// angles' centred differences over [`MOTION_WINDOW_S`] (rad/s,
-    /// rad/s^2).
-    pub fn smoothed_motion(&self, t: f64) -> (f64, f64) {
+    /// The table's rate at `t` (s) from the encoder angles' centred
+    /// difference over [`MOTION_WINDOW_S`], rad/s.
+    pub fn smoothed_rate(&self, t: f64) -> f64 {
         let w = MOTION_WINDOW_S;
-        let a = |x: f64| self.track.angle(x);
-        let rate = (a(t + 0.5 * w) - a(t - 0.5 * w)) / w;
-        let accel = (a(t + w) - 2.0 * a(t) + a(t - w)) / (w * w);
-        (rate, accel)
+        (self.track.angle(t + 0.5 * w) - self.track.angle(t - 0.5 * w)) / w
     }
 
     /// Whether channel `ch` (0-2 gyro, 3-5 accel) was recorded.
@@ -217,65 +208,12 @@ pub fn predict_on(
         p.w.push(w);
         p.f.push(f);
         p.theta.push(theta);
-        p.motion.push(if p.track.follows(r.t_s - time_offset_s) {
-            (theta.1 * theta.1, theta.2)
-        } else {
-            let (w, a) = p.smoothed_motion(r.t_s - time_offset_s);
-            (w * w, a)
-        });
         p.dtemp.push(r.temp_c.map_or(0.0, |t| t - temp0));
         p.y_w.push(Vector3::from(r.gyro_radps));
         p.y_f.push(y_f);
     }
-    add_ripple(&mut p);
+    crate::motion::fill(&mut p, crate::motion::MotionSource::Gyro);
     p
-}
-
-/// Adds to the unfollowed samples' mean square rate the ripple about the
-/// smooth rate: per window, the table-axis gyro's scatter about the
-/// smooth rate (its bias and the smooth part gone with the window's
-/// mean), less the gyro's white noise (that scatter where the table is
-/// still, the median of those windows; none still: nothing subtracted,
-/// an upper bound of the ripple).
-fn add_ripple(p: &mut Prediction) {
-    let len = ((MOTION_WINDOW_S / p.dt_s.max(1e-6)).round() as usize).max(2);
-    let n = p.t_s.len();
-    let follows: Vec<bool> = p
-        .t_s
-        .iter()
-        .map(|t| p.track.follows(t - p.time_offset_s))
-        .collect();
-    let mut wins = vec![];
-    for start in (0..n.saturating_sub(len - 1)).step_by(len) {
-        let idx = start..start + len;
-        let d: Vec<f64> = idx
-            .clone()
-            .map(|r| p.y_w[r].dot(&p.k) - p.motion[r].0.max(0.0).sqrt() * smooth_sign(p, r))
-            .collect();
-        let mean = d.iter().sum::<f64>() / len as f64;
-        let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (len - 1) as f64;
-        let still = idx.clone().all(|r| p.theta[r].1 == 0.0 && follows[r]);
-        wins.push((idx, var, still));
-    }
-    let mut still: Vec<f64> = wins.iter().filter(|w| w.2).map(|w| w.1).collect();
-    still.sort_unstable_by(f64::total_cmp);
-    let noise = still.get(still.len() / 2).copied().unwrap_or(0.0);
-    for (idx, var, _) in wins {
-        let ripple = (var - noise).max(0.0);
-        for r in idx.filter(|r| !follows[*r]) {
-            p.motion[r].0 += ripple;
-        }
-    }
-}
-
-/// The sign of the smooth rate at sample `r` (the mean square keeps none).
-fn smooth_sign(p: &Prediction, r: usize) -> f64 {
-    let t = p.t_s[r] - p.time_offset_s;
-    if p.track.follows(t) {
-        p.theta[r].1.signum()
-    } else {
-        p.smoothed_motion(t).0.signum()
-    }
 }
 
 /// `rec` with its encoder angles re-rounded to `factor` times their own

@@ -29,7 +29,7 @@ pub struct Dataset {
 }
 
 /// Every external dataset a test reads.
-pub const EXTERNAL: [Dataset; 4] = [
+pub const EXTERNAL: [Dataset; 5] = [
     Dataset {
         dir: "adis16405_static",
         probe: "adis_16405_imu1_f32le_1000000x6.bin",
@@ -66,6 +66,22 @@ pub const EXTERNAL: [Dataset; 4] = [
         used_by: &[
             "diagnose_inject_real::an_accelerometer_nonlinearity_hidden_in_the_whole_real_run_is_found_at_its_size",
             "diagnose_never_worse::real_runs_claim_only_the_channels_they_improve",
+        ],
+    },
+    Dataset {
+        dir: "mpu6050_stepper_roll_fast",
+        probe: "recording/imu.csv",
+        licence: "MIT (Song, Pei, Hsiao-Wecksler 2022); 18 MB, read from the shared data",
+        used_by: &[
+            "diagnose_inject_real::a_lever_arm_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_inject_real::a_g_sensitivity_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_inject_real::an_accelerometer_nonlinearity_hidden_in_the_whole_real_run_is_found_at_its_size",
+            "diagnose_inject_real::a_further_accelerometer_latency_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_inject_real::a_warm_up_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_inject_real::a_further_gyro_latency_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_inject_real::two_effects_hidden_at_once_in_the_real_stepper_runs_are_both_sized",
+            "diagnose_inject_real::a_mount_wobble_hidden_in_the_real_stepper_runs_is_found_at_its_size",
+            "diagnose_real_table::the_table_axis_bias_instability_is_not_taken_from_the_tables_motion",
         ],
     },
     Dataset {

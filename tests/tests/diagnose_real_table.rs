@@ -266,3 +266,47 @@ fn no_measurement_is_an_exact_zero() {
         }
     }
 }
+
+/// The longest stretch of `rec`'s encoder reads that hold one angle, s.
+fn longest_still(rec: &Recording) -> f64 {
+    let (mut best, mut start) = (0.0f64, 0);
+    for (i, r) in rec.table.iter().enumerate() {
+        if r.angle_rad != rec.table[start].angle_rad {
+            start = i;
+        }
+        best = best.max(r.t_s - rec.table[start].t_s);
+    }
+    best
+}
+
+#[test]
+fn the_table_axis_bias_instability_is_not_taken_from_the_tables_motion() {
+    // Issue 47: a table run's bias instability comes from its still
+    // phases or is reported as not measurable, never from the stepper's
+    // own rate noise (a new user once read "112 deg/h" there; a static
+    // MPU-6050 gives 10-15). Neither real run holds the encoder still for
+    // even 2 s, so there is no still phase to measure it on: every channel
+    // must say "not measured", the table axis (x) first.
+    let mut runs = vec![("slow 300 s", real())];
+    if let Some(p) = rins_tests::data::external(
+        "diagnose_real_table::the_table_axis_bias_instability_is_not_taken_from_the_tables_motion",
+        "mpu6050_stepper_roll_fast",
+        "recording",
+    ) {
+        runs.push(("fast", Recording::read(&p).unwrap()));
+    }
+    for (name, rec) in runs {
+        let still = longest_still(&rec);
+        assert!(
+            still < 2.0,
+            "{name}: a still phase of {still} s to measure on"
+        );
+        let d = run(&rec, name, &Options::default()).unwrap();
+        for (ch, a) in d.details.allan.iter().enumerate() {
+            let line = rins::diagnose::noise_terms::describe(ch, a);
+            println!("{name}: {line}");
+            assert!(!a.floor_seen, "{name}: {line}");
+            assert!(line.contains("bias instability not measured"), "{line}");
+        }
+    }
+}
