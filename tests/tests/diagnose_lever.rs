@@ -172,19 +172,20 @@ fn a_lever_arm_under_ripple_the_track_cannot_follow_is_sized_with_an_honest_sigm
             sigma * 1e3,
             lever.x * 1e3
         );
-        // Within 10 % (the figure), and the error inside 3 sigma.
-        assert!(
-            (p.value - lever.x).abs() < 0.1 * lever.x,
-            "{} mm",
-            p.value * 1e3
-        );
-        assert!(
-            (p.value - lever.x).abs() < 3.0 * sigma,
-            "{} +- {} mm",
-            p.value * 1e3,
-            sigma * 1e3
-        );
+        within(p.value, sigma, lever.x);
     }
+}
+
+/// The issues' figures (33 and 47): the estimate `value` +- `sigma` (m)
+/// within 10 % of `truth` (m), and its error inside 3 sigma.
+fn within(value: f64, sigma: f64, truth: f64) {
+    assert!((value - truth).abs() < 0.1 * truth, "{} mm", value * 1e3);
+    assert!(
+        (value - truth).abs() < 3.0 * sigma,
+        "{} +- {} mm",
+        value * 1e3,
+        sigma * 1e3
+    );
 }
 
 /// The fast horizontal stepper: half turns about x as the real fast run
@@ -217,16 +218,5 @@ fn a_lever_arm_on_a_fast_horizontal_stepper_with_ripple_is_sized_with_an_honest_
         p.value * 1e3,
         sigma * 1e3
     );
-    // The figures: within 10 %, the error inside 3 sigma.
-    assert!(
-        (p.value - lever.y).abs() < 0.1 * lever.y,
-        "{} mm",
-        p.value * 1e3
-    );
-    assert!(
-        (p.value - lever.y).abs() < 3.0 * sigma,
-        "{} +- {} mm",
-        p.value * 1e3,
-        sigma * 1e3
-    );
+    within(p.value, sigma, lever.y);
 }
