@@ -143,6 +143,12 @@ impl Eskf<f32> {
             rejected: 0,
             refused: 0,
             elapsed_s: 0.0,
+            seen: Innovations {
+                n: 0,
+                v2: 0.0,
+                hph: 0.0,
+                r: 0.0,
+            },
         }
     }
 }
@@ -339,6 +345,23 @@ pub struct UpdateReport<T: Real> {
     pub rejected_mask: u8,
 }
 
+/// The innovations of scalar updates since a host last took them
+/// ([`Eskf::take_seen`]): what an adaptive host compares with what the
+/// filter predicted (the learnt ride noise, `rins::aided::learn`). Each
+/// component that reached the gate counts, a rejected one at the gate
+/// (its square capped at `gate^2 s`: one wild fix must not decide).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Innovations<T: Real> {
+    /// Components.
+    pub n: u32,
+    /// Sum of the innovations squared (units of each measurement^2).
+    pub v2: T,
+    /// Sum of their predicted variances from the state, `h P h^T`.
+    pub hph: T,
+    /// Sum of the measurements' own variances `r`.
+    pub r: T,
+}
+
 /// The filter: covariance, the error estimate since the last correction,
 /// the bias estimates, counters.
 #[derive(Clone, Debug)]
@@ -373,6 +396,8 @@ pub struct Eskf<T: Real> {
     pub refused: u32,
     /// Time propagated since the start, s (the warm-up's clock).
     elapsed_s: f64,
+    /// The innovations since the host last took them.
+    seen: Innovations<T>,
 }
 
 impl<T: Real> Eskf<T> {
@@ -393,9 +418,42 @@ impl<T: Real> Eskf<T> {
             rejected: 0,
             refused: 0,
             elapsed_s: 0.0,
+            seen: Innovations {
+                n: 0,
+                v2: T::zero(),
+                hph: T::zero(),
+                r: T::zero(),
+            },
         };
         e.reset(cfg, init);
         e
+    }
+
+    /// The noise model in use.
+    pub fn config(&self) -> &EskfConfig {
+        &self.cfg
+    }
+
+    /// The noise model from now on (a host that learns the ride's noise;
+    /// the board keeps its tuning). Refused unless its process noise
+    /// terms are finite and not negative.
+    pub fn set_config(&mut self, cfg: EskfConfig) -> Result<(), FilterError> {
+        let terms = [
+            cfg.gyro_arw,
+            cfg.accel_vrw,
+            cfg.gyro_bias_sigma,
+            cfg.accel_bias_sigma,
+        ];
+        if !terms.iter().all(|x| x.is_finite() && *x >= 0.0) {
+            return Err(FilterError::BadSigma);
+        }
+        self.cfg = cfg;
+        Ok(())
+    }
+
+    /// The innovations since the last call, and counting starts again.
+    pub fn take_seen(&mut self) -> Innovations<T> {
+        core::mem::take(&mut self.seen)
     }
 
     /// Starts again in place (no 5 KiB covariance built on the stack): as
@@ -761,6 +819,12 @@ impl<T: Real> Eskf<T> {
         let s = h.dot(&ph) + r;
         let innov = z - h.dot(&self.dx);
         let gate = T::lit(self.cfg.gate_sigma);
+        let hph = h.dot(&ph);
+        let seen = &mut self.seen;
+        seen.n = seen.n.saturating_add(1);
+        seen.v2 += (innov * innov).min(gate * gate * s);
+        seen.hph += hph;
+        seen.r += r;
         if innov * innov > gate * gate * s {
             self.rejected += 1;
             return Ok(None);
@@ -772,7 +836,6 @@ impl<T: Real> Eskf<T> {
         // dense O(n^3) products): A = (I - k h) P = P - k ph^T (P
         // symmetric), A h = ph - k (h ph), and the result A - (A h) k^T +
         // r k k^T, element by element and symmetrised.
-        let hph = h.dot(&ph);
         let ah = ph - k * hph;
         // P is kept symmetric to the bit (each pair below is summed so (i,
         // j) and (j, i) get the same result), so A[i, j] reads P[i, j].

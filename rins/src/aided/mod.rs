@@ -26,6 +26,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod learn;
 pub mod lever;
 pub mod offset;
 mod plots;
@@ -66,6 +67,9 @@ pub struct AidedOptions {
     /// recording's (`None`: the recording's; [`lever::estimate`] finds
     /// it).
     pub lever_b_m: Option<[f64; 3]>,
+    /// Learn the ride's process noise from the fixes ([`learn`]), never
+    /// below the sensor file's (off unless asked: `--learn-noise`).
+    pub learn_noise: bool,
 }
 
 /// The innovation gate the CLI and the tools use unless told, sigmas.
@@ -89,6 +93,7 @@ impl AidedOptions {
             time_offset_s: 0.0,
             vehicle: None,
             lever_b_m: None,
+            learn_noise: false,
         }
     }
 }
@@ -218,6 +223,8 @@ pub struct AidedRun {
     /// fixes' stamps plus it are their times on the IMU's clock): the
     /// summary measures against the fixes at those times.
     pub time_offset_s: f64,
+    /// The ride's noise learnt from the fixes (`None`: not learnt).
+    pub learnt: Option<learn::LearnReport>,
 }
 
 /// The fixes the filter gets: each at its time on the IMU's clock
@@ -431,6 +438,9 @@ fn navigate_t<T: Real>(
         v.report.odometer_unused = mv.odometer.as_ref().is_some_and(|o| !o.is_empty());
         v
     });
+    let mut learner = opt
+        .learn_noise
+        .then(|| learn::NoiseLearner::<T>::new(*an.kf.config()));
     let mut last_fix_s = f64::NEG_INFINITY;
     let n = rec.imu.len();
     let half = 0.5 / m.imu_rate_hz;
@@ -440,6 +450,7 @@ fn navigate_t<T: Real>(
         // a logger's samples need not be evenly spaced) go in before its
         // step.
         let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
+        let mut handed = None;
         while let Some(f) = fixes.get(next_fix) {
             if f.t_s > upto {
                 break;
@@ -449,7 +460,9 @@ fn navigate_t<T: Real>(
                 run.refused += 1; // before the run's first step
                 continue;
             }
-            an.gnss(&f.to_fix());
+            let fix = f.to_fix();
+            an.gnss(&fix);
+            handed = Some(fix);
         }
         let mut step = AidedStep::default();
         let reinits_before = an.counts.reinits;
@@ -466,6 +479,10 @@ fn navigate_t<T: Real>(
         }
         if step.fix.is_some() {
             last_fix_s = t;
+        }
+        if let (Some(l), true) = (learner.as_mut(), k > 0) {
+            let rate = T::lit(track.at(t).rate);
+            l.after_step(&mut an, t, &sample(k), &table(t), rate, handed.as_ref());
         }
         if let (Some(va), true) = (vaid.as_mut(), k > 0) {
             va.after_step(&mut an, t, &table(t), t - last_fix_s <= 2.0);
@@ -563,6 +580,7 @@ fn navigate_t<T: Real>(
     run.reinits = an.counts.reinits;
     run.faults = an.counts.steps_refused;
     run.vehicle = vaid.map(|v| v.report);
+    run.learnt = learner.map(|l| l.report);
     run.outages_cut = opt.outages.clone();
     progress(1.0);
     Ok(run)

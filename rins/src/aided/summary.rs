@@ -70,6 +70,9 @@ pub struct AidedSummary {
     pub vehicle: Option<super::vehicle::VehicleReport>,
     /// The run started moving: the velocity the fixes gave it.
     pub moving_start: Option<super::align::MovingStart>,
+    /// The ride's noise learnt from the fixes (`None`: not asked,
+    /// `--learn-noise`).
+    pub learnt_noise: Option<super::learn::LearnReport>,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -318,6 +321,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
     }
     s.vehicle = run.vehicle;
+    s.learnt_noise = run.learnt.clone();
     s.moving_start = run.moving_start;
     s.reinit_at = run
         .reinit_at
@@ -506,6 +510,9 @@ impl AidedSummary {
         if let Some(v) = &self.vehicle {
             o += &vehicle_text(v);
         }
+        if let Some(l) = &self.learnt_noise {
+            o += &learnt_text(l);
+        }
         if !self.zupt_spans.is_empty() {
             let shown: Vec<String> = self
                 .zupt_spans
@@ -531,6 +538,27 @@ impl AidedSummary {
     pub fn json(&self) -> serde_json::Value {
         serde_json::to_value(self).unwrap_or(serde_json::Value::Null)
     }
+}
+
+/// The learnt noise's line of the summary.
+fn learnt_text(l: &super::learn::LearnReport) -> String {
+    let (g, a) = (l.gyro_arw_file_deg_rth, l.accel_vrw_file_mps_rth);
+    if l.factor_max <= 1.0 {
+        return format!(
+            "ride noise: the sensor file's (gyro {g:.3} deg/sqrt(h), accel {a:.3} m/s/sqrt(h)): {} returns of a shadow run {}-s without fixes never asked for more\n",
+            l.returns,
+            super::learn::HORIZON_S
+        );
+    }
+    let r = |f: f64| f.sqrt();
+    format!(
+        "ride noise learnt from the fixes over {}-s horizons: every process noise term {:.1}x the sensor file's density at the end, {:.1}x at most (gyro white {g:.3} -> {:.3} deg/sqrt(h), accel white {a:.3} -> {:.3} m/s/sqrt(h), the bias instabilities alike; kept through outages; fixes whose sigmas are too small would read the same)\n",
+        super::learn::HORIZON_S,
+        r(l.factor_end),
+        r(l.factor_max),
+        g * r(l.factor_end),
+        a * r(l.factor_end)
+    )
 }
 
 /// The vehicle's lines of the summary.

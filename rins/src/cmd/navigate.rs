@@ -57,6 +57,12 @@ pub struct Args {
     /// No zero-velocity updates (with --gnss).
     #[arg(long, requires = "gnss")]
     pub no_zupt: bool,
+    /// Learn the ride's process noise from the fixes (with --gnss): a copy
+    /// of the filter run 10 s without fixes, its error against the next
+    /// fix; every noise term scaled up where it runs outside its sigma,
+    /// never below the sensor file's
+    #[arg(long, requires = "gnss")]
+    pub learn_noise: bool,
     /// The sensor profile the filter's noise model comes from (default:
     /// the one named by the recording's `[imu] model`).
     /// A shipped profile's name or a sensor file (`rins-sensor/2`): its
@@ -412,6 +418,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             .as_deref()
             .and_then(rins::aided::vehicle::Vehicle::parse),
         lever_b_m: None,
+        learn_noise: a.learn_noise,
     };
     let mut opt = opt;
     let lever = match a.estimate_lever_arm {
