@@ -302,6 +302,10 @@ pub struct AidedCounts {
     /// refused [`REINIT_FIXES`] times in a row while they agreed among
     /// themselves.
     pub reinits: u32,
+    /// Re-initialisations of the vertical channel alone: the refused
+    /// fixes' heights, while their horizontal positions were taken (a
+    /// MEMS's unaided vertical channel lost in an outage).
+    pub height_reinits: u32,
     /// Windows the detector called still that the filter's own velocity
     /// refuted ([`STILL_VELOCITY_NIS`]): no zero-velocity or zero-rotation
     /// update made.
@@ -419,6 +423,8 @@ struct RefusedFix<T: Real> {
     v_n: Vector3<T>,
     sigma_h: T,
     has_vel: bool,
+    /// Its horizontal position was refused too (else its height alone).
+    horizontal: bool,
 }
 
 impl RefusedFix<f32> {
@@ -428,6 +434,7 @@ impl RefusedFix<f32> {
         v_n: crate::real::zeros_f32(),
         sigma_h: 0.0,
         has_vel: false,
+        horizontal: false,
     };
 }
 
@@ -608,6 +615,7 @@ impl AidedNav<f32> {
             fixes_replaced: 0,
             corrections_refused: 0,
             reinits: 0,
+            height_reinits: 0,
             still_refuted: 0,
         },
     };
@@ -1188,6 +1196,7 @@ impl<T: Real> AidedNav<T> {
             v_n: v_fix,
             sigma_h,
             has_vel: fix.has_velocity(),
+            horizontal: !horizontal,
         };
         if self.lost_after(refused, seen) {
             let sigma_v = T::lit(f64::from(fix.sigma_v_mm) * 1e-3);
@@ -1202,10 +1211,20 @@ impl<T: Real> AidedNav<T> {
                     |(v, s)| (v - v_ant, s),
                 ),
             };
-            self.kf.reinit_position_velocity(&zp, &zv, &sp_all, sv);
+            // Only the height lost (every refused fix's horizontal
+            // position taken): the vertical channel alone starts again;
+            // the horizontal keeps its state and correlations.
+            let height_only = !self.refused_fixes.iter().any(|f| f.horizontal);
+            let axes = [!height_only, !height_only, true];
+            self.kf.reinit_axes(&zp, &zv, &sp_all, sv, axes);
             // The re-initialisation took the fix's velocity.
             self.vel_next = false;
-            self.counts.reinits = self.counts.reinits.saturating_add(1);
+            let c = &mut self.counts;
+            if height_only {
+                c.height_reinits = c.height_reinits.saturating_add(1);
+            } else {
+                c.reinits = c.reinits.saturating_add(1);
+            }
             self.refused_run = 0;
         }
         (nis, used, horizontal)

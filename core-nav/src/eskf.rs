@@ -996,8 +996,27 @@ impl<T: Real> Eskf<T> {
         sigma_p: &Vector3<T>,
         sigma_v: T,
     ) {
+        self.reinit_axes(zp, zv, sigma_p, sigma_v, [true; 3]);
+    }
+
+    /// [`Self::reinit_position_velocity`] on the NED axes `axes` says
+    /// (`[false, false, true]`: the vertical channel alone, a height lost
+    /// while the horizontal fixes are taken); the other axes keep their
+    /// estimate and covariance.
+    pub fn reinit_axes(
+        &mut self,
+        zp: &Vector3<T>,
+        zv: &Vector3<T>,
+        sigma_p: &Vector3<T>,
+        sigma_v: T,
+        axes: [bool; 3],
+    ) {
         let blocks = [I_P, I_V, I_GP];
-        for i in blocks.iter().flat_map(|b| *b..*b + 3) {
+        let on = |k: usize| axes.get(k).copied().unwrap_or(false);
+        let rows = blocks
+            .iter()
+            .flat_map(|b| (0..3).filter(|k| on(*k)).map(move |k| *b + k));
+        for i in rows {
             for j in 0..N {
                 for idx in [(i, j), (j, i)] {
                     if let Some(x) = self.p.get_mut(idx) {
@@ -1008,8 +1027,8 @@ impl<T: Real> Eskf<T> {
         }
         let [gh, gv] = self.cfg.gnss_corr_sigma_m;
         let gp = Vector3::new(gh, gh, gv).map(T::lit);
-        let axes = sigma_p.iter().zip(gp.iter()).zip(zp.iter().zip(zv.iter()));
-        for (k, ((sp, g), (p, v))) in axes.enumerate() {
+        let axes_it = sigma_p.iter().zip(gp.iter()).zip(zp.iter().zip(zv.iter()));
+        for (k, ((sp, g), (p, v))) in axes_it.enumerate().filter(|(k, _)| on(*k)) {
             let diag = [
                 (I_P + k, *sp * *sp),
                 (I_V + k, sigma_v * sigma_v),
@@ -1025,8 +1044,10 @@ impl<T: Real> Eskf<T> {
                     *x = e;
                 }
             }
+            if let Some(b) = self.gnss_bias.get_mut(k) {
+                *b = T::zero();
+            }
         }
-        self.gnss_bias = Vector3::zeros();
     }
 
     /// Hands the error estimate over: `(dp, dv, phi)` to add to the

@@ -29,6 +29,7 @@ sigma: the columns rins's summary prints.
 """
 import argparse
 import csv
+import json
 import math
 
 import numpy as np
@@ -93,12 +94,61 @@ def read_csv(path):
         return list(csv.DictReader(f))
 
 
+def datasheet_models():
+    """sensors/icm42605.toml's datasheet figures: gyro 0.0038 deg/s/sqrt(Hz),
+    turn-on 1 deg/s; accel 70 ug/sqrt(Hz), turn-on 20 mg; scale 0.5 %,
+    cross-axis 1.25 %; the bias walk of the instability alone."""
+    gyro = inertial_sensor.EstimationModel(
+        bias_sd=1.0 * DEG, noise=0.0038 * DEG, bias_walk=5 * DEG / 3600 / 10,
+        scale_misal_sd=np.full((3, 3), 0.0125 / math.sqrt(2)) + np.diag([0.005 - 0.0125 / math.sqrt(2)] * 3))
+    accel = inertial_sensor.EstimationModel(
+        bias_sd=20e-3 * G0, noise=70e-6 * G0, bias_walk=0.04e-3 * G0 / 10,
+        scale_misal_sd=np.full((3, 3), 0.01 / math.sqrt(2)) + np.diag([0.005 - 0.01 / math.sqrt(2)] * 3))
+    return gyro, accel
+
+
+def rins_models(path, run_s):
+    """The process noise rins's filter started from (`process_noise` in
+    `rins navigate --json`), every term: white noise, turn-on bias, the
+    bias random walk, scale and misalignment. The warm-up's drift, a
+    random walk whose density falls off as e^(-t/tau) in rins, is given
+    to pyins (whose bias walk is constant) as its mean density over the
+    run, sigma^2 (1 - e^(-T/tau)) / T: the same variance added by the
+    run's end. (Its drift of the gyro scales is not given: pyins has no
+    scale walk, and the walk has no table to turn it into a heading.)"""
+    with open(path) as f:
+        n = json.load(f)["process_noise"]
+    tau = n["warmup_tau_s"]
+    share = (1.0 - math.exp(-run_s / tau)) / run_s if tau > 0 else 0.0
+
+    def walk(instability, warm):
+        return math.sqrt(instability ** 2 + warm ** 2 * share)
+
+    def scale_misal(scale, misal):
+        return np.full((3, 3), misal) + np.diag([scale - misal] * 3)
+
+    gyro = inertial_sensor.EstimationModel(
+        bias_sd=n["gyro_bias_init_radps"], noise=n["gyro_white_rad_rts"],
+        bias_walk=walk(n["gyro_bias_walk_radps_rts"], n["warmup_gyro_bias_radps"]),
+        scale_misal_sd=scale_misal(n["gyro_scale"], n["gyro_misalignment_rad"]))
+    accel = inertial_sensor.EstimationModel(
+        bias_sd=n["accel_bias_init_mps2"], noise=n["accel_white_mps_rts"],
+        bias_walk=walk(n["accel_bias_walk_mps2_rts"], n["warmup_accel_bias_mps2"]),
+        scale_misal_sd=scale_misal(n["accel_scale"], n["accel_misalignment_rad"]))
+    print(f"pyins: rins's process noise ({path}): gyro bias walk "
+          f"{gyro.bias_walk if hasattr(gyro, 'bias_walk') else 'set'}")
+    return gyro, accel
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("rec")
     ap.add_argument("--outage", action="append", default=[], help="START:LEN, s")
     ap.add_argument("--lever-arm", default=None,
                     help="X,Y,Z: the antenna from the IMU in the body frame, m")
+    ap.add_argument("--noise-from", default=None,
+                    help="rins navigate --json output: pyins gets the process "
+                         "noise rins's filter started from (every term)")
     a = ap.parse_args()
     lever = None
     if a.lever_arm is not None:
@@ -146,14 +196,10 @@ def main():
           f"1-sigma level {level_sd:.2f} heading {heading_sd:.1f} deg")
     pva["roll"], pva["pitch"], pva["heading"] = roll, pitch, heading
 
-    # sensors/icm42605.toml: gyro 0.0038 deg/s/sqrt(Hz), turn-on 1 deg/s;
-    # accel 70 ug/sqrt(Hz), turn-on 20 mg; scale 0.5 %, cross-axis 1.25 %.
-    gyro = inertial_sensor.EstimationModel(
-        bias_sd=1.0 * DEG, noise=0.0038 * DEG, bias_walk=5 * DEG / 3600 / 10,
-        scale_misal_sd=np.full((3, 3), 0.0125 / math.sqrt(2)) + np.diag([0.005 - 0.0125 / math.sqrt(2)] * 3))
-    accel = inertial_sensor.EstimationModel(
-        bias_sd=20e-3 * G0, noise=70e-6 * G0, bias_walk=0.04e-3 * G0 / 10,
-        scale_misal_sd=np.full((3, 3), 0.01 / math.sqrt(2)) + np.diag([0.005 - 0.01 / math.sqrt(2)] * 3))
+    if a.noise_from is None:
+        gyro, accel = datasheet_models()
+    else:
+        gyro, accel = rins_models(a.noise_from, float(imu.index[-1] - imu.index[0]))
     r = filters.run_feedback_filter(
         pva, 1.0, 0.05, level_sd, heading_sd,
         increments, gyro, accel, meas, time_step=10 * float(np.median(np.diff(grid))))

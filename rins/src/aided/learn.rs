@@ -82,6 +82,71 @@ impl LearnReport {
     }
 }
 
+/// The process noise a run's filter started from (the sensor file's,
+/// through `sensor::filter::filter_config`), every term in SI: what a
+/// peer filter is given to compare equals (`tools/pyins-peer`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ProcessNoise {
+    /// Gyro white noise (angle random walk), rad/sqrt(s).
+    pub gyro_white_rad_rts: f64,
+    /// Accelerometer white noise (velocity random walk), m/s/sqrt(s).
+    pub accel_white_mps_rts: f64,
+    /// Gyro bias at the start, 1-sigma, rad/s.
+    pub gyro_bias_init_radps: f64,
+    /// Accelerometer bias at the start, 1-sigma, m/s^2.
+    pub accel_bias_init_mps2: f64,
+    /// Gyro bias random walk in run (the instability's), rad/s/sqrt(s).
+    pub gyro_bias_walk_radps_rts: f64,
+    /// Accelerometer bias random walk in run, m/s^2/sqrt(s).
+    pub accel_bias_walk_mps2_rts: f64,
+    /// The warm-up's time constant, s: its drift adds a random walk of
+    /// density `sigma^2 / tau e^(-t / tau)` (variance per s) to each bias
+    /// at `t` s from the start.
+    pub warmup_tau_s: f64,
+    /// The gyro biases' drift over the warm-up, 1-sigma, rad/s.
+    pub warmup_gyro_bias_radps: f64,
+    /// The accelerometer biases', m/s^2.
+    pub warmup_accel_bias_mps2: f64,
+    /// The gyro scales', 1.
+    pub warmup_gyro_scale: f64,
+    /// Gyro scale error, 1-sigma, 1.
+    pub gyro_scale: f64,
+    /// Gyro axis misalignment, 1-sigma, rad.
+    pub gyro_misalignment_rad: f64,
+    /// Accelerometer scale error, 1-sigma, 1.
+    pub accel_scale: f64,
+    /// Accelerometer axis misalignment, 1-sigma, rad.
+    pub accel_misalignment_rad: f64,
+}
+
+impl From<&EskfConfig> for ProcessNoise {
+    fn from(c: &EskfConfig) -> Self {
+        let walk = |sigma: f64, tau: f64| {
+            if tau > 0.0 {
+                (2.0 * sigma * sigma / tau).sqrt()
+            } else {
+                0.0
+            }
+        };
+        Self {
+            gyro_white_rad_rts: c.gyro_arw,
+            accel_white_mps_rts: c.accel_vrw,
+            gyro_bias_init_radps: c.gyro_bias_init_sigma,
+            accel_bias_init_mps2: c.accel_bias_init_sigma,
+            gyro_bias_walk_radps_rts: walk(c.gyro_bias_sigma, c.gyro_bias_tau_s),
+            accel_bias_walk_mps2_rts: walk(c.accel_bias_sigma, c.accel_bias_tau_s),
+            warmup_tau_s: c.warmup.tau_s,
+            warmup_gyro_bias_radps: c.warmup.gyro_bias,
+            warmup_accel_bias_mps2: c.warmup.accel_bias,
+            warmup_gyro_scale: c.warmup.gyro_scale,
+            gyro_scale: c.gyro_scale_sigma,
+            gyro_misalignment_rad: c.gyro_misalignment_sigma,
+            accel_scale: c.accel_scale_sigma,
+            accel_misalignment_rad: c.accel_misalignment_sigma,
+        }
+    }
+}
+
 /// The learner's state through a run.
 #[derive(Clone, Debug)]
 pub struct NoiseLearner<T: Real> {

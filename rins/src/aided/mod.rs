@@ -192,6 +192,9 @@ pub struct AidedRun {
     /// Re-initialisations of position and velocity from fixes the gate
     /// kept refusing while they agreed among themselves.
     pub reinits: u32,
+    /// Re-initialisations of the height alone (its fixes' heights
+    /// refused while their horizontal positions were taken).
+    pub height_reinits: u32,
     /// Steps the mechanization refused (non-finite samples, gaps).
     pub faults: u32,
     /// Normalised estimation error squared against `truth.csv` (simulated
@@ -225,6 +228,8 @@ pub struct AidedRun {
     pub time_offset_s: f64,
     /// The ride's noise learnt from the fixes (`None`: not learnt).
     pub learnt: Option<learn::LearnReport>,
+    /// The process noise the filter started from (the sensor file's).
+    pub process_noise: learn::ProcessNoise,
 }
 
 /// The fixes the filter gets: each at its time on the IMU's clock
@@ -438,6 +443,7 @@ fn navigate_t<T: Real>(
         v.report.odometer_unused = mv.odometer.as_ref().is_some_and(|o| !o.is_empty());
         v
     });
+    run.process_noise = an.kf.config().into();
     let mut learner = opt
         .learn_noise
         .then(|| learn::NoiseLearner::<T>::new(*an.kf.config()));
@@ -578,6 +584,7 @@ fn navigate_t<T: Real>(
     run.zarus = an.counts.zarus;
     run.still_refuted = an.counts.still_refuted;
     run.reinits = an.counts.reinits;
+    run.height_reinits = an.counts.height_reinits;
     run.faults = an.counts.steps_refused;
     run.vehicle = vaid.map(|v| v.report);
     run.learnt = learner.map(|l| l.report);

@@ -63,6 +63,9 @@ pub struct AidedSummary {
     /// Re-initialisations from fixes the gate kept refusing while they
     /// agreed among themselves (a filter lost after an outage).
     pub reinits: u32,
+    /// Re-initialisations of the height alone: the gate refused the
+    /// fixes' heights while it took their horizontal positions.
+    pub height_reinits: u32,
     /// Where zero-velocity updates fired: (first s, last s, updates) per
     /// stretch (updates at most 0.5 s apart).
     pub zupt_spans: Vec<(f64, f64, u32)>,
@@ -73,6 +76,9 @@ pub struct AidedSummary {
     /// The ride's noise learnt from the fixes (`None`: not asked,
     /// `--learn-noise`).
     pub learnt_noise: Option<super::learn::LearnReport>,
+    /// The process noise the filter started from (the sensor file's):
+    /// what a peer is given to compare equals.
+    pub process_noise: super::learn::ProcessNoise,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -230,6 +236,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         zarus: run.zarus,
         still_refuted: run.still_refuted,
         reinits: run.reinits,
+        height_reinits: run.height_reinits,
         rejected: run.rejected,
         refused: run.refused,
         faults: run.faults,
@@ -322,6 +329,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
     }
     s.vehicle = run.vehicle;
     s.learnt_noise = run.learnt.clone();
+    s.process_noise = run.process_noise;
     s.moving_start = run.moving_start;
     s.reinit_at = run
         .reinit_at
@@ -486,8 +494,8 @@ impl AidedSummary {
             );
         }
         o += &format!(
-            "zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {}\n",
-            self.zupts, self.zarus, self.rejected, self.refused, self.faults, self.reinits
+            "zero-velocity updates {}, zero-rotation updates {}, gate rejections {}, refused {}, mechanization faults {}, re-initialised from the fixes {} (the height alone {})\n",
+            self.zupts, self.zarus, self.rejected, self.refused, self.faults, self.reinits, self.height_reinits
         );
         if self.still_refuted > 0 {
             o += &format!(
