@@ -10,17 +10,13 @@
 //! The table angle and rate come from the encoder (hal-sim's
 //! [`recording::track::EncoderTrack`]).
 
-use anyhow::{bail, Result};
-use core_nav::aided::{AidedConfig, AidedNav, AidedStep, OriginE7};
-use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
-use core_nav::eskf::{EskfConfig, InitialSigma, I_P, I_PHI, I_V};
+use anyhow::Result;
+use core_nav::aided::AidedConfig;
+use core_nav::eskf::{EskfConfig, InitialSigma};
 use core_nav::real::Real;
-use core_nav::strapdown::ImuSample;
-use core_nav::table::{Axis, TableAngle};
+use core_nav::table::Axis;
 use hal_sim::imu::ImuSpec;
-use nalgebra::{Quaternion, Vector3};
 use recording::moving::GnssRow;
-use recording::track::EncoderTrack;
 use recording::Recording;
 
 use crate::nav::TrajRow;
@@ -29,6 +25,7 @@ pub mod align;
 pub mod learn;
 pub mod lever;
 pub mod offset;
+pub mod pipeline;
 mod plots;
 pub mod span;
 mod summary;
@@ -345,252 +342,14 @@ pub fn navigate(
 }
 
 /// [`navigate`] with the mechanization and the filter in `T` (f32 as on
-/// the board); the bookkeeping (fixes, truth, output) in f64.
+/// the board); the bookkeeping (fixes, truth, output) in f64: the
+/// [`pipeline`].
 fn navigate_t<T: Real>(
     rec: &Recording,
     opt: &AidedOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<AidedRun> {
-    let m = &rec.meta;
-    let Some(mv) = &rec.moving else {
-        bail!("not a moving-base recording ([base] moving = true in meta.toml): --gnss needs one")
-    };
-    let Some(fixes) = &mv.gnss else {
-        bail!("gnss.csv is missing: --gnss needs the receiver's fixes")
-    };
-    let lever_b = lever_b_m(rec, opt);
-    if rec.table.len() < 3 || rec.imu.len() < 2 {
-        bail!("the recording has too few IMU samples or encoder reads");
-    }
-    let track = EncoderTrack::of(rec);
-    let table = |t: f64| TableAngle::<T>::from_rad_f64(track.angle(t));
-    let origin = OriginE7::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
-    let to_us = crate::nav::clock_us(m);
-    let sample = |k: usize| {
-        let r = &rec.imu[k];
-        ImuSample::<T> {
-            t_us: to_us(r.t_s),
-            w_is_s: Vector3::from(r.gyro_radps).map(T::lit),
-            f_s: Vector3::from(r.accel_mps2).map(T::lit),
-        }
-    };
-    let fixes = prepared_fixes(fixes, opt);
-    let g = m.site().gravity_mps2;
-    let (euler, initial, aligned) = match mv.heading_unknown {
-        false => (
-            Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg),
-            INITIAL_SIGMA,
-            None,
-        ),
-        true => {
-            let a = align::align(rec, &fixes, g)?;
-            let [roll, pitch, heading] = a.euler_rad;
-            let initial = InitialSigma {
-                level_rad: a.level_sigma_rad,
-                heading_rad: a.heading_sigma_rad,
-                ..INITIAL_SIGMA
-            };
-            (
-                Euler {
-                    roll,
-                    pitch,
-                    heading,
-                },
-                initial,
-                Some(a),
-            )
-        }
-    };
-    let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
-    let t0 = rec.imu[0].t_s;
-    let read_sigma = if rec.table.is_empty() {
-        0.0
-    } else {
-        track.read_sigma_rad()
-    };
-    let moving = align::moving_start(&fixes, origin.point());
-    let mut cfg = aided_config(m.axis, lever_b, opt, m.imu_rate_hz, read_sigma);
-    // The zero-velocity detector learns its threshold from a still start:
-    // a car already moving has none (uniform motion reads as stillness).
-    cfg.zupt &= moving.is_none();
-    cfg.initial = initial;
-    cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&fixes);
-    let mut an = AidedNav::<T>::new(
-        crate::nav::strapdown_config(m, false),
-        origin,
-        &q_b_n0,
-        &table(t0),
-        &sample(0),
-        cfg,
-    )
-    .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
-    if let Some(ms) = &moving {
-        an.start_moving(&Vector3::from(ms.v_n_mps).map(T::lit), T::lit(ms.sigma_mps));
-    }
-    let earth = *an.nav().earth();
-    let tangent = earth.origin.tangent();
-    let f64v = |v: &Vector3<T>| v.map(|x| x.to_f64());
-    let mut run = AidedRun {
-        aligned,
-        moving_start: moving,
-        time_offset_s: opt.time_offset_s,
-        ..AidedRun::default()
-    };
-    let truth = mv.truth.as_deref().unwrap_or(&[]);
-    let mut next_fix = 0usize;
-    let mut vaid = opt.vehicle.map(|_| {
-        let mut v = vehicle::VehicleAid::default();
-        v.report.odometer_unused = mv.odometer.as_ref().is_some_and(|o| !o.is_empty());
-        v
-    });
-    run.process_noise = an.kf.config().into();
-    let mut learner = opt
-        .learn_noise
-        .then(|| learn::NoiseLearner::<T>::new(*an.kf.config()));
-    let mut last_fix_s = f64::NEG_INFINITY;
-    let n = rec.imu.len();
-    let half = 0.5 / m.imu_rate_hz;
-    for k in 0..n {
-        let t = rec.imu[k].t_s;
-        // GNSS: fixes nearest this sample (up to the midpoint to the next:
-        // a logger's samples need not be evenly spaced) go in before its
-        // step.
-        let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
-        let mut handed = None;
-        while let Some(f) = fixes.get(next_fix) {
-            if f.t_s > upto {
-                break;
-            }
-            next_fix += 1;
-            if k == 0 {
-                run.refused += 1; // before the run's first step
-                continue;
-            }
-            let fix = f.to_fix();
-            an.gnss(&fix);
-            handed = Some(fix);
-        }
-        let mut step = AidedStep::default();
-        let reinits_before = an.counts.reinits;
-        if k > 0 {
-            match an.step(&sample(k), &table(t), T::lit(track.at(t).rate)) {
-                Ok(s) => step = s,
-                Err(_) => continue,
-            }
-        }
-        // A fix's position and velocity updates, a sample apart: each
-        // its own NIS over its own components.
-        for (nis, used) in [step.fix, step.fix_velocity].into_iter().flatten() {
-            run.nis.push((t, nis.to_f64(), used));
-        }
-        if step.fix.is_some() {
-            last_fix_s = t;
-        }
-        if let (Some(l), true) = (learner.as_mut(), k > 0) {
-            let rate = T::lit(track.at(t).rate);
-            l.after_step(&mut an, t, &sample(k), &table(t), rate, handed.as_ref());
-        }
-        if let (Some(va), true) = (vaid.as_mut(), k > 0) {
-            va.after_step(&mut an, t, &table(t), t - last_fix_s <= 2.0);
-        }
-        // The filter's own solution (the board sends the same), put on the
-        // tangent plane for the trajectory.
-        let sol = an.solution(&table(t));
-        let c_b_n = quat_to_dcm(&sol.q_b_n).map(|x| x.to_f64());
-        let e = Euler {
-            roll: sol.euler.roll.to_f64(),
-            pitch: sol.euler.pitch.to_f64(),
-            heading: sol.euler.heading.to_f64(),
-        };
-        let ned = tangent.ned_to(&earth.point_at(&sol.p_n));
-        let v_n = f64v(&sol.v_n);
-        let f64s = |a: [T; 3]| a.map(|x| x.to_f64());
-        let kf = &an.kf;
-        run.rows.push(AidedRow {
-            traj: TrajRow {
-                t_s: t,
-                ned_m: [ned.x, ned.y, ned.z],
-                v_mps: [v_n.x, v_n.y, v_n.z],
-                rph_deg: [
-                    e.roll.to_degrees(),
-                    e.pitch.to_degrees(),
-                    e.heading.to_degrees().rem_euclid(360.0),
-                ],
-                faults: an.counts.steps_refused,
-            },
-            sigma_p_m: f64s(sol.sigma_p_m),
-            sigma_v_mps: f64s(sol.sigma_v_mps),
-            sigma_att_deg: f64s(sol.sigma_euler_rad).map(f64::to_degrees),
-            fix: step.fix.is_some(),
-            fix_taken: step.fix_horizontal_taken,
-            still: step.still,
-            zupt: step.zupt,
-        });
-        if an.counts.reinits > reinits_before {
-            run.reinit_at.push((t, reinit_jump_m(&run.rows)));
-        }
-        // NEES once a second against the truth over every state the
-        // trajectory reports but height (north, east, the three
-        // velocities, the attitude's rotation error `phi` about north,
-        // east and down: `c_true = (I + [phi x]) c_est`).
-        if k % (m.imu_rate_hz.round().max(1.0) as usize) == 0 {
-            if let Some(tr) = recording::moving::truth_at(truth, t) {
-                if let Some(row) = run.rows.last() {
-                    run.nees_diag.push((t, diagonal_nees(row, &tr)));
-                }
-                let [r, p, h] = tr.euler_deg;
-                let c_true = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(r, p, h)));
-                let d = c_true * c_b_n.transpose();
-                let e = nalgebra::SVector::<f64, 8>::from_column_slice(&[
-                    tr.p_n_m[0] - ned.x,
-                    tr.p_n_m[1] - ned.y,
-                    tr.v_n_mps[0] - v_n.x,
-                    tr.v_n_mps[1] - v_n.y,
-                    tr.v_n_mps[2] - v_n.z,
-                    0.5 * (d[(2, 1)] - d[(1, 2)]),
-                    0.5 * (d[(0, 2)] - d[(2, 0)]),
-                    0.5 * (d[(1, 0)] - d[(0, 1)]),
-                ]);
-                let idx = [
-                    I_P,
-                    I_P + 1,
-                    I_V,
-                    I_V + 1,
-                    I_V + 2,
-                    I_PHI,
-                    I_PHI + 1,
-                    I_PHI + 2,
-                ];
-                let p8 =
-                    nalgebra::SMatrix::<f64, 8, 8>::from_fn(|r, c| kf.p[(idx[r], idx[c])].to_f64());
-                if let Some(ch) = p8.cholesky() {
-                    let x = ch.solve(&e);
-                    run.nees.push((t, e.dot(&x), 8));
-                    let pa = p8.fixed_view::<3, 3>(5, 5).into_owned();
-                    let ea = e.fixed_rows::<3>(5).into_owned();
-                    if let Some(ca) = pa.cholesky() {
-                        run.nees_attitude.push((t, ea.dot(&ca.solve(&ea))));
-                    }
-                }
-            }
-        }
-        if k % 20_000 == 0 {
-            progress(k as f64 / n as f64);
-        }
-    }
-    run.rejected = an.kf.rejected;
-    run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
-    run.zupts = an.counts.zupts;
-    run.zarus = an.counts.zarus;
-    run.still_refuted = an.counts.still_refuted;
-    run.reinits = an.counts.reinits;
-    run.height_reinits = an.counts.height_reinits;
-    run.faults = an.counts.steps_refused;
-    run.vehicle = vaid.map(|v| v.report);
-    run.learnt = learner.map(|l| l.report);
-    run.outages_cut = opt.outages.clone();
-    progress(1.0);
-    Ok(run)
+    pipeline::run::<T>(rec, opt, progress)
 }
 
 /// The horizontal jump (m) between the last two rows: the last one's

@@ -2,6 +2,7 @@
 //! the end of each outage), NIS and NEES against their 95 % bounds.
 
 use super::AidedRun;
+use recording::moving::{truth_at, TruthRow};
 use recording::Recording;
 
 /// What a run shows against the truth and its own statistics.
@@ -135,6 +136,10 @@ pub struct OutageError {
     /// The share of its samples whose height error is inside 3 times the
     /// filter's height 1-sigma.
     pub height_within_3_sigma: Option<f64>,
+    /// The share of its seconds whose 9-dof diagonal NEES (the sigma
+    /// columns alone, against a truth with attitude) is inside its 95 %
+    /// bounds.
+    pub nees_diag_in_95: Option<f64>,
 }
 
 /// The receiver's solution as a reference: each fix's position as offsets
@@ -199,39 +204,17 @@ pub fn chi2_95_bounds(k: usize) -> (f64, f64) {
 
 /// The summary of `run` on `rec` (errors only where `truth.csv` exists).
 pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
-    let given = rec
+    let (kind, truth) = reference(rec, run);
+    let errs = Errors { run, truth: &truth };
+    let rate = rec
         .moving
         .as_ref()
-        .and_then(|m| m.truth.as_deref())
-        .unwrap_or(&[]);
-    // No truth (a real log): the receiver's own solution, every fix (those
-    // withheld in the outages cut in among them), is the reference.
-    let from_fixes = match given.is_empty() {
-        true => receiver_reference(rec, run.time_offset_s),
-        false => vec![],
-    };
-    let truth = if given.is_empty() {
-        &from_fixes[..]
-    } else {
-        given
-    };
-    // The truth at each row's time (interpolated: a truth file need not
-    // share the trajectory's rows).
-    let h_err = |i: usize| -> Option<f64> {
-        let r = run.rows.get(i)?;
-        let tr = recording::moving::truth_at(truth, r.traj.t_s)?;
-        Some(
-            ((tr.p_n_m[0] - r.traj.ned_m[0]).powi(2) + (tr.p_n_m[1] - r.traj.ned_m[1]).powi(2))
-                .sqrt(),
-        )
-    };
-    // The height's error and its 1-sigma at each row.
-    let v_err = |i: usize| -> Option<(f64, f64)> {
-        let r = run.rows.get(i)?;
-        let tr = recording::moving::truth_at(truth, r.traj.t_s)?;
-        Some(((tr.p_n_m[2] - r.traj.ned_m[2]).abs(), r.sigma_p_m[2]))
-    };
+        .and_then(|m| m.gnss_meta)
+        .map_or(1.0, |g| g.rate_hz);
     let mut s = AidedSummary {
+        reference: kind,
+        reference_span_s: span(run, |r| truth_at(&truth, r.traj.t_s).is_some()),
+        run_span_s: span(run, |_| true),
         zupts: run.zupts,
         zarus: run.zarus,
         still_refuted: run.still_refuted,
@@ -241,96 +224,21 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         refused: run.refused,
         faults: run.faults,
         zupt_spans: zupt_spans(run),
+        vehicle: run.vehicle,
+        learnt_noise: run.learnt.clone(),
+        process_noise: run.process_noise,
+        moving_start: run.moving_start,
         ..AidedSummary::default()
     };
-    let fix_rows: Vec<usize> = (0..run.rows.len()).filter(|i| run.rows[*i].fix).collect();
-    let rate = rec
-        .moving
-        .as_ref()
-        .and_then(|m| m.gnss_meta)
-        .map_or(1.0, |g| g.rate_hz);
-    // With GNSS: rows within one fix interval after a fix.
-    let mut sq = vec![];
-    s.reference = match (given.is_empty(), truth.is_empty()) {
-        (false, _) => "truth",
-        (true, false) => "receiver",
-        (true, true) => "none",
-    };
-    let covered = |r: &&super::AidedRow| recording::moving::truth_at(truth, r.traj.t_s).is_some();
-    s.reference_span_s = run
-        .rows
+    s.outages = run
+        .outages_cut
         .iter()
-        .find(covered)
-        .zip(run.rows.iter().rev().find(covered))
-        .map(|(a, b)| [a.traj.t_s, b.traj.t_s]);
-    s.run_span_s = run
-        .rows
-        .first()
-        .zip(run.rows.last())
-        .map(|(a, b)| [a.traj.t_s, b.traj.t_s]);
-    for &(a, l) in &run.outages_cut {
-        let inside: Vec<usize> = (0..run.rows.len())
-            .filter(|i| run.rows[*i].traj.t_s >= a && run.rows[*i].traj.t_s < a + l)
-            .collect();
-        let errs: Vec<(usize, f64)> = inside
-            .iter()
-            .filter_map(|i| h_err(*i).map(|e| (*i, e)))
-            .collect();
-        let sigma = |i: usize| {
-            run.rows
-                .get(i)
-                .map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1]))
-        };
-        let end = errs.last().copied();
-        let v_errs: Vec<(f64, f64)> = inside.iter().filter_map(|i| v_err(*i)).collect();
-        s.outages.push(OutageError {
-            start_s: a,
-            len_s: l,
-            end_error_m: end.map(|e| e.1),
-            max_error_m: errs.iter().map(|e| e.1).reduce(f64::max),
-            end_sigma_m: end
-                .map(|e| e.0)
-                .or(inside.last().copied())
-                .map_or(f64::NAN, sigma),
-            within_3_sigma: (!errs.is_empty()).then(|| {
-                errs.iter().filter(|(i, e)| *e <= 3.0 * sigma(*i)).count() as f64
-                    / errs.len() as f64
-            }),
-            end_height_error_m: v_errs.last().map(|e| e.0),
-            end_height_sigma_m: v_errs.last().map(|e| e.1),
-            height_within_3_sigma: (!v_errs.is_empty()).then(|| {
-                v_errs.iter().filter(|(e, sd)| *e <= 3.0 * sd).count() as f64 / v_errs.len() as f64
-            }),
-        });
+        .map(|&(a, l)| errs.outage(a, l))
+        .collect();
+    if run.outages_cut.is_empty() {
+        s.outages.extend(errs.gaps(rate));
     }
-    for w in fix_rows.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let gap = run.rows[b].traj.t_s - run.rows[a].traj.t_s;
-        if gap > 2.0 / rate && run.outages_cut.is_empty() {
-            let errs: Vec<f64> = (a + 1..b).filter_map(h_err).collect();
-            let last = run.rows.get(b - 1);
-            s.outages.push(OutageError {
-                start_s: run.rows[a].traj.t_s,
-                len_s: gap,
-                end_error_m: h_err(b - 1),
-                max_error_m: errs.iter().copied().reduce(f64::max),
-                end_sigma_m: last.map_or(f64::NAN, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1])),
-                within_3_sigma: None,
-                end_height_error_m: None,
-                end_height_sigma_m: None,
-                height_within_3_sigma: None,
-            });
-        } else if gap <= 2.0 / rate {
-            sq.extend((a..b).filter_map(h_err).map(|e| e * e));
-        }
-    }
-    if !sq.is_empty() {
-        s.h_rms_with_gnss_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
-    }
-    s.vehicle = run.vehicle;
-    s.learnt_noise = run.learnt.clone();
-    s.process_noise = run.process_noise;
-    s.moving_start = run.moving_start;
+    s.h_rms_with_gnss_m = errs.rms_with_gnss(rate, &[]);
     s.reinit_at = run
         .reinit_at
         .iter()
@@ -347,70 +255,217 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         .filter_map(|r| r.after_outage.map(|[a, l]| [a + l, r.t_s]))
         .collect();
     if !recovering.is_empty() {
-        let mut sq = vec![];
-        for w in fix_rows.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if run.rows[b].traj.t_s - run.rows[a].traj.t_s <= 2.0 / rate {
-                sq.extend(
-                    (a..b)
-                        .filter(|i| {
-                            let t = run.rows[*i].traj.t_s;
-                            !recovering.iter().any(|[x, y]| t >= *x && t <= *y)
-                        })
-                        .filter_map(h_err)
-                        .map(|e| e * e),
-                );
-            }
-        }
-        if !sq.is_empty() {
-            s.h_rms_with_gnss_settled_m = Some((sq.iter().sum::<f64>() / sq.len() as f64).sqrt());
-        }
+        s.h_rms_with_gnss_settled_m = errs.rms_with_gnss(rate, &recovering);
     }
-    let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();
-    if !used.is_empty() {
-        let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
-        s.nis_mean_per_dof = Some(used.iter().map(|x| x.1).sum::<f64>() / dof);
-        s.nis_in_95 = Some(
-            used.iter()
-                .filter(|x| {
-                    let (lo, hi) = chi2_95_bounds(x.2 as usize);
-                    let v = x.1 / f64::from(x.2);
-                    v >= lo && v <= hi
-                })
-                .count() as f64
-                / used.len() as f64,
-        );
+    (s.nis_mean_per_dof, s.nis_in_95) = nis_stats(&run.nis);
+    (s.nees_mean_per_dof, s.nees_in_95) = nees_stats(&run.nees);
+    s.nees_attitude_per_dof = (!run.nees_attitude.is_empty()).then(|| {
+        run.nees_attitude.iter().map(|x| x.1 / 3.0).sum::<f64>() / run.nees_attitude.len() as f64
+    });
+    s.nees_diag_in_95 = diag_in_95(run.nees_diag.iter());
+    s
+}
+
+/// What the errors are measured against: `truth.csv`, else (a real log)
+/// the receiver's own solution, every fix (those withheld in the outages
+/// cut in among them): its kind and rows.
+pub fn reference(rec: &Recording, run: &AidedRun) -> (&'static str, Vec<TruthRow>) {
+    let given = rec
+        .moving
+        .as_ref()
+        .and_then(|m| m.truth.as_deref())
+        .unwrap_or(&[]);
+    if !given.is_empty() {
+        return ("truth", given.to_vec());
     }
-    if !run.nees_attitude.is_empty() {
-        let n = run.nees_attitude.len() as f64;
-        s.nees_attitude_per_dof =
-            Some(run.nees_attitude.iter().map(|x| x.1 / 3.0).sum::<f64>() / n);
+    let fixes = receiver_reference(rec, run.time_offset_s);
+    let kind = if fixes.is_empty() { "none" } else { "receiver" };
+    (kind, fixes)
+}
+
+/// The first and last rows' times where `keep` holds.
+fn span(run: &AidedRun, keep: impl Fn(&super::AidedRow) -> bool) -> Option<[f64; 2]> {
+    let first = run.rows.iter().find(|r| keep(r))?;
+    let last = run.rows.iter().rev().find(|r| keep(r))?;
+    Some([first.traj.t_s, last.traj.t_s])
+}
+
+/// A run's rows against a reference (interpolated to each row's time: a
+/// reference need not share the trajectory's rows).
+pub struct Errors<'a> {
+    /// The run.
+    pub run: &'a AidedRun,
+    /// The reference's rows.
+    pub truth: &'a [TruthRow],
+}
+
+impl Errors<'_> {
+    /// Row `i`'s horizontal error, m.
+    pub fn horizontal(&self, i: usize) -> Option<f64> {
+        let r = self.run.rows.get(i)?;
+        let tr = truth_at(self.truth, r.traj.t_s)?;
+        let (dn, de) = (tr.p_n_m[0] - r.traj.ned_m[0], tr.p_n_m[1] - r.traj.ned_m[1]);
+        Some((dn * dn + de * de).sqrt())
     }
-    if !run.nees_diag.is_empty() {
-        let (lo, hi) = chi2_95_bounds(9);
-        let inside = run
+
+    /// Row `i`'s height error (its magnitude) and height 1-sigma, m.
+    pub fn height(&self, i: usize) -> Option<(f64, f64)> {
+        let r = self.run.rows.get(i)?;
+        let tr = truth_at(self.truth, r.traj.t_s)?;
+        Some(((tr.p_n_m[2] - r.traj.ned_m[2]).abs(), r.sigma_p_m[2]))
+    }
+
+    /// Row `i`'s horizontal 1-sigma (rss of north and east), m.
+    fn sigma(&self, i: usize) -> f64 {
+        self.run
+            .rows
+            .get(i)
+            .map_or(0.0, |r| r.sigma_p_m[0].hypot(r.sigma_p_m[1]))
+    }
+
+    /// The errors of the outage cut in at `a` s for `l` s.
+    pub fn outage(&self, a: f64, l: f64) -> OutageError {
+        let rows = &self.run.rows;
+        let inside: Vec<usize> = (0..rows.len())
+            .filter(|i| rows[*i].traj.t_s >= a && rows[*i].traj.t_s < a + l)
+            .collect();
+        let errs: Vec<(usize, f64)> = inside
+            .iter()
+            .filter_map(|i| self.horizontal(*i).map(|e| (*i, e)))
+            .collect();
+        let end = errs.last().copied();
+        let v_errs: Vec<(f64, f64)> = inside.iter().filter_map(|i| self.height(*i)).collect();
+        let share = |n: usize, of: usize| (of > 0).then(|| n as f64 / of as f64);
+        let diag = self
+            .run
             .nees_diag
             .iter()
-            .filter(|x| (lo..=hi).contains(&(x.1 / 9.0)))
-            .count();
-        s.nees_diag_in_95 = Some(inside as f64 / run.nees_diag.len() as f64);
+            .filter(|(t, _)| *t >= a && *t < a + l);
+        OutageError {
+            start_s: a,
+            len_s: l,
+            end_error_m: end.map(|e| e.1),
+            max_error_m: errs.iter().map(|e| e.1).reduce(f64::max),
+            end_sigma_m: end
+                .map(|e| e.0)
+                .or(inside.last().copied())
+                .map_or(f64::NAN, |i| self.sigma(i)),
+            within_3_sigma: share(
+                errs.iter()
+                    .filter(|(i, e)| *e <= 3.0 * self.sigma(*i))
+                    .count(),
+                errs.len(),
+            ),
+            end_height_error_m: v_errs.last().map(|e| e.0),
+            end_height_sigma_m: v_errs.last().map(|e| e.1),
+            height_within_3_sigma: share(
+                v_errs.iter().filter(|(e, sd)| *e <= 3.0 * sd).count(),
+                v_errs.len(),
+            ),
+            nees_diag_in_95: diag_in_95(diag),
+        }
     }
-    if !run.nees.is_empty() {
-        let n = run.nees.len() as f64;
-        s.nees_mean_per_dof = Some(run.nees.iter().map(|x| x.1 / x.2 as f64).sum::<f64>() / n);
-        s.nees_in_95 = Some(
-            run.nees
-                .iter()
-                .filter(|x| {
-                    let (lo, hi) = chi2_95_bounds(x.2);
-                    let v = x.1 / x.2 as f64;
-                    v >= lo && v <= hi
+
+    /// The gaps between fixes longer than two fix intervals at `rate_hz`
+    /// (a run without outages cut in: the receiver's own).
+    pub fn gaps(&self, rate_hz: f64) -> Vec<OutageError> {
+        let rows = &self.run.rows;
+        let fix_rows: Vec<usize> = (0..rows.len()).filter(|i| rows[*i].fix).collect();
+        fix_rows
+            .windows(2)
+            .filter_map(|w| {
+                let (a, b) = (*w.first()?, *w.get(1)?);
+                let gap = rows[b].traj.t_s - rows[a].traj.t_s;
+                (gap > 2.0 / rate_hz).then(|| {
+                    let errs: Vec<f64> = (a + 1..b).filter_map(|i| self.horizontal(i)).collect();
+                    OutageError {
+                        start_s: rows[a].traj.t_s,
+                        len_s: gap,
+                        end_error_m: self.horizontal(b - 1),
+                        max_error_m: errs.iter().copied().reduce(f64::max),
+                        end_sigma_m: self.sigma(b - 1),
+                        ..OutageError::default()
+                    }
                 })
-                .count() as f64
-                / n,
-        );
+            })
+            .collect()
     }
-    s
+
+    /// The horizontal error's rms over the rows within a fix interval
+    /// (`rate_hz`) after a fix, but those inside `skip` ([from s, to s]
+    /// each), m.
+    pub fn rms_with_gnss(&self, rate_hz: f64, skip: &[[f64; 2]]) -> Option<f64> {
+        let rows = &self.run.rows;
+        let fix_rows: Vec<usize> = (0..rows.len()).filter(|i| rows[*i].fix).collect();
+        let skipped = |i: &usize| {
+            let t = rows[*i].traj.t_s;
+            skip.iter().any(|[x, y]| t >= *x && t <= *y)
+        };
+        let sq: Vec<f64> = fix_rows
+            .windows(2)
+            .filter_map(|w| Some((*w.first()?, *w.get(1)?)))
+            .filter(|(a, b)| rows[*b].traj.t_s - rows[*a].traj.t_s <= 2.0 / rate_hz)
+            .flat_map(|(a, b)| a..b)
+            .filter(|i| !skipped(i))
+            .filter_map(|i| self.horizontal(i))
+            .map(|e| e * e)
+            .collect();
+        (!sq.is_empty()).then(|| (sq.iter().sum::<f64>() / sq.len() as f64).sqrt())
+    }
+}
+
+/// The fixes' mean NIS per component and the share of fixes inside the
+/// two-sided 95 % bounds of their components, over `(t, NIS, components)`
+/// (`None` when no fix was used).
+pub fn nis_stats(nis: &[(f64, f64, u8)]) -> (Option<f64>, Option<f64>) {
+    let used: Vec<&(f64, f64, u8)> = nis.iter().filter(|x| x.2 > 0).collect();
+    if used.is_empty() {
+        return (None, None);
+    }
+    let dof: f64 = used.iter().map(|x| f64::from(x.2)).sum();
+    let inside = used
+        .iter()
+        .filter(|x| {
+            let (lo, hi) = chi2_95_bounds(x.2 as usize);
+            (lo..=hi).contains(&(x.1 / f64::from(x.2)))
+        })
+        .count();
+    (
+        Some(used.iter().map(|x| x.1).sum::<f64>() / dof),
+        Some(inside as f64 / used.len() as f64),
+    )
+}
+
+/// The NEES's mean per degree of freedom and the share of its seconds
+/// inside their 95 % bounds, over `(t, NEES, dof)`.
+pub fn nees_stats(nees: &[(f64, f64, usize)]) -> (Option<f64>, Option<f64>) {
+    if nees.is_empty() {
+        return (None, None);
+    }
+    let n = nees.len() as f64;
+    let inside = nees
+        .iter()
+        .filter(|x| {
+            let (lo, hi) = chi2_95_bounds(x.2);
+            (lo..=hi).contains(&(x.1 / x.2 as f64))
+        })
+        .count();
+    (
+        Some(nees.iter().map(|x| x.1 / x.2 as f64).sum::<f64>() / n),
+        Some(inside as f64 / n),
+    )
+}
+
+/// The share of `(t, NEES)` seconds of the 9-dof diagonal NEES (the sigma
+/// columns alone) inside its 95 % bounds (`None` for none).
+pub fn diag_in_95<'a>(nees: impl Iterator<Item = &'a (f64, f64)>) -> Option<f64> {
+    let (lo, hi) = chi2_95_bounds(9);
+    let (mut n, mut inside) = (0usize, 0usize);
+    for x in nees {
+        n += 1;
+        inside += usize::from((lo..=hi).contains(&(x.1 / 9.0)));
+    }
+    (n > 0).then(|| inside as f64 / n as f64)
 }
 
 impl AidedSummary {
@@ -468,6 +523,12 @@ impl AidedSummary {
                 o += &format!(
                     "  its height: {e:.2} m off when it ended (sigma {sd:.2} m), {:.0} % of it inside 3 sigma\n",
                     100.0 * w
+                );
+            }
+            if let Some(d) = g.nees_diag_in_95 {
+                o += &format!(
+                    "  its sigma columns (9 dof, diagonal NEES): {:.0} % of its seconds inside the 95 % bounds\n",
+                    100.0 * d
                 );
             }
         }
@@ -578,5 +639,72 @@ fn vehicle_text(v: &super::vehicle::VehicleReport) -> String {
             if v.odometer_unused { "; odometer.csv not used (its scale error needs a filter state rins does not have)" } else { "" }
         ),
         _ => "vehicle: no constraint made: the forward axis needs 20 s of straight driving above 5 m/s with fixes, and the run had less\n".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aided::AidedRow;
+
+    /// A run of 11 rows, 1 s apart, 3 m north of the truth (at rest at the
+    /// origin), each with a horizontal 1-sigma `sigma` north and a fix.
+    fn run_off_by_3(sigma: f64) -> (AidedRun, Vec<TruthRow>) {
+        let rows = (0..11)
+            .map(|i| {
+                let mut r = AidedRow::default();
+                r.traj.t_s = f64::from(i);
+                r.traj.ned_m = [3.0, 0.0, 0.5];
+                r.sigma_p_m = [sigma, 0.0, 1.0];
+                r.fix = true;
+                r
+            })
+            .collect();
+        let truth = (0..11)
+            .map(|i| TruthRow {
+                t_s: f64::from(i),
+                p_n_m: [0.0; 3],
+                v_n_mps: [0.0; 3],
+                euler_deg: [0.0; 3],
+            })
+            .collect();
+        let run = AidedRun {
+            rows,
+            nees_diag: vec![(2.0, 9.0), (3.0, 0.0), (20.0, 9.0)],
+            ..AidedRun::default()
+        };
+        (run, truth)
+    }
+
+    #[test]
+    fn an_outage_s_errors_are_the_rows_against_the_reference() {
+        for (sigma, inside) in [(1.0, 1.0), (0.9, 0.0)] {
+            let (run, truth) = run_off_by_3(sigma);
+            let g = Errors {
+                run: &run,
+                truth: &truth,
+            }
+            .outage(2.0, 5.0);
+            // Rows 2-6: 3 m off each, inside 3 sigma exactly at sigma 1.
+            assert_eq!(g.end_error_m, Some(3.0));
+            assert_eq!(g.within_3_sigma, Some(inside));
+            assert_eq!(g.end_height_error_m, Some(0.5));
+            assert_eq!(g.height_within_3_sigma, Some(1.0));
+            // Its seconds of the diagonal NEES: 9 (per dof 1, inside) and
+            // 0 (below the lower bound); the one at 20 s is not its.
+            assert_eq!(g.nees_diag_in_95, Some(0.5));
+        }
+    }
+
+    #[test]
+    fn nis_and_nees_shares_count_their_bounds() {
+        // Per component 1 (inside) and 30 (outside); a fix with no
+        // component used does not count.
+        let (m, f) = nis_stats(&[(0.0, 2.0, 2), (1.0, 60.0, 2), (2.0, 0.0, 0)]);
+        assert_eq!((m, f), (Some(15.5), Some(0.5)));
+        assert_eq!(nis_stats(&[]), (None, None));
+        let (m, f) = nees_stats(&[(0.0, 8.0, 8), (1.0, 0.0, 8)]);
+        assert_eq!((m, f), (Some(0.5), Some(0.5)));
+        assert_eq!(diag_in_95([].iter()), None);
     }
 }

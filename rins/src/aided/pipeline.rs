@@ -1,0 +1,448 @@
+//! One run of `navigate --gnss` as a pipeline, data flowing one way:
+//! [`start`] (the recording checked, the fixes prepared, the start
+//! attitude, the navigator built), then per IMU sample the fixes due
+//! handed over ([`FixFeed`]), the navigator's step, each [`Aid`] after it
+//! (the vehicle's constraints, the learnt noise: each with one
+//! interface), the filter's solution as an output row ([`solution_row`])
+//! and, against a truth, the NEES ([`nees_against`]); at the end each
+//! aid's report into the run.
+
+use super::{
+    aided_config, align, gnss_corr_sigma, learn, lever_b_m, prepared_fixes, vehicle, AidedOptions,
+    AidedRow, AidedRun, INITIAL_SIGMA,
+};
+use crate::nav::TrajRow;
+use anyhow::{bail, Result};
+use core_nav::aided::{AidedNav, AidedStep, GnssFix, OriginE7};
+use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
+use core_nav::earth::{LocalEarth, Tangent};
+use core_nav::eskf::{Eskf, InitialSigma, I_P, I_PHI, I_V};
+use core_nav::real::Real;
+use core_nav::strapdown::ImuSample;
+use core_nav::table::TableAngle;
+use nalgebra::{Matrix3, Quaternion, Vector3};
+use recording::moving::{GnssRow, TruthRow};
+use recording::track::EncoderTrack;
+use recording::Recording;
+
+/// What an aid sees after the navigator's step at one sample.
+pub struct StepView<'a, T: Real> {
+    /// The sample's time, s.
+    pub t_s: f64,
+    /// The sample (raw, as the navigator took it).
+    pub sample: &'a ImuSample<T>,
+    /// The table's angle there.
+    pub table: &'a TableAngle<T>,
+    /// The table's rate there, rad/s.
+    pub table_rate: T,
+    /// The fix handed over before this step, if any.
+    pub handed: Option<&'a GnssFix>,
+    /// What the step did.
+    pub step: &'a AidedStep<T>,
+    /// A fix was used within the last two seconds.
+    pub aided: bool,
+}
+
+/// An aid made between the navigator's steps: its own updates, its own
+/// report.
+pub trait Aid<T: Real> {
+    /// After the navigator's step (`at`): its updates on `an`.
+    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>);
+    /// What it did, into the run.
+    fn report(self: Box<Self>, run: &mut AidedRun);
+}
+
+impl<T: Real> Aid<T> for vehicle::VehicleAid {
+    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>) {
+        vehicle::VehicleAid::after_step(self, an, at.t_s, at.table, at.aided);
+    }
+    fn report(self: Box<Self>, run: &mut AidedRun) {
+        run.vehicle = Some(self.report);
+    }
+}
+
+impl<T: Real> Aid<T> for learn::NoiseLearner<T> {
+    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>) {
+        learn::NoiseLearner::after_step(
+            self,
+            an,
+            at.t_s,
+            at.sample,
+            at.table,
+            at.table_rate,
+            at.handed,
+        );
+    }
+    fn report(self: Box<Self>, run: &mut AidedRun) {
+        run.learnt = Some(self.report);
+    }
+}
+
+/// The run's fixed inputs, made once by [`start`].
+pub struct Inputs<'a> {
+    rec: &'a Recording,
+    track: EncoderTrack,
+    to_us: Box<dyn Fn(f64) -> u64>,
+    /// The fixes the filter gets ([`prepared_fixes`]).
+    pub fixes: Vec<GnssRow>,
+    truth: &'a [TruthRow],
+}
+
+impl Inputs<'_> {
+    /// Sample `k` as the navigator takes it.
+    fn sample<T: Real>(&self, k: usize) -> Option<ImuSample<T>> {
+        let r = self.rec.imu.get(k)?;
+        Some(ImuSample::<T> {
+            t_us: (self.to_us)(r.t_s),
+            w_is_s: Vector3::from(r.gyro_radps).map(T::lit),
+            f_s: Vector3::from(r.accel_mps2).map(T::lit),
+        })
+    }
+
+    /// The table's angle at `t_s`.
+    fn table<T: Real>(&self, t_s: f64) -> TableAngle<T> {
+        TableAngle::<T>::from_rad_f64(self.track.angle(t_s))
+    }
+}
+
+/// The recording checked, its fixes prepared, the start attitude (given
+/// or aligned), the navigator built (moving at the start when the fixes
+/// say so) and the run begun.
+///
+/// # Errors
+/// Not a moving-base recording, no `gnss.csv`, too few samples, an
+/// alignment or a start the mechanization refuses.
+pub fn start<'a, T: Real>(
+    rec: &'a Recording,
+    opt: &AidedOptions,
+) -> Result<(AidedNav<T>, AidedRun, Inputs<'a>)> {
+    let m = &rec.meta;
+    let Some(mv) = &rec.moving else {
+        bail!("not a moving-base recording ([base] moving = true in meta.toml): --gnss needs one")
+    };
+    let Some(fixes) = &mv.gnss else {
+        bail!("gnss.csv is missing: --gnss needs the receiver's fixes")
+    };
+    if rec.table.len() < 3 || rec.imu.len() < 2 {
+        bail!("the recording has too few IMU samples or encoder reads");
+    }
+    let input = Inputs {
+        rec,
+        track: EncoderTrack::of(rec),
+        to_us: Box::new(crate::nav::clock_us(m)),
+        fixes: prepared_fixes(fixes, opt),
+        truth: mv.truth.as_deref().unwrap_or(&[]),
+    };
+    let (euler, initial, aligned) = start_attitude(rec, &input.fixes)?;
+    let lever_b = lever_b_m(rec, opt);
+    let origin = OriginE7::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
+    let moving = align::moving_start(&input.fixes, origin.point());
+    let mut cfg = aided_config(
+        m.axis,
+        lever_b,
+        opt,
+        m.imu_rate_hz,
+        input.track.read_sigma_rad(),
+    );
+    // The zero-velocity detector learns its threshold from a still start:
+    // a car already moving has none (uniform motion reads as stillness).
+    cfg.zupt &= moving.is_none();
+    cfg.initial = initial;
+    cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&input.fixes);
+    let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
+    let t0 = rec.imu.first().map_or(0.0, |r| r.t_s);
+    let Some(first) = input.sample::<T>(0) else {
+        bail!("the recording has no IMU sample");
+    };
+    let mut an = AidedNav::<T>::new(
+        crate::nav::strapdown_config(m, false),
+        origin,
+        &q_b_n0,
+        &input.table(t0),
+        &first,
+        cfg,
+    )
+    .map_err(|e| anyhow::anyhow!("cannot start navigation: {e}"))?;
+    if let Some(ms) = &moving {
+        an.start_moving(&Vector3::from(ms.v_n_mps).map(T::lit), T::lit(ms.sigma_mps));
+    }
+    let run = AidedRun {
+        aligned,
+        moving_start: moving,
+        time_offset_s: opt.time_offset_s,
+        process_noise: an.kf.config().into(),
+        outages_cut: opt.outages.clone(),
+        ..AidedRun::default()
+    };
+    Ok((an, run, input))
+}
+
+/// The start attitude: meta.toml's, or aligned on the fixes when its
+/// heading is unknown; the filter's initial sigmas with it.
+fn start_attitude(
+    rec: &Recording,
+    fixes: &[GnssRow],
+) -> Result<(Euler<f64>, InitialSigma, Option<align::Alignment>)> {
+    let m = &rec.meta;
+    if !rec.moving.as_ref().is_some_and(|mv| mv.heading_unknown) {
+        let e = Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg);
+        return Ok((e, INITIAL_SIGMA, None));
+    }
+    let a = align::align(rec, fixes, m.site().gravity_mps2)?;
+    let [roll, pitch, heading] = a.euler_rad;
+    let initial = InitialSigma {
+        level_rad: a.level_sigma_rad,
+        heading_rad: a.heading_sigma_rad,
+        ..INITIAL_SIGMA
+    };
+    let e = Euler {
+        roll,
+        pitch,
+        heading,
+    };
+    Ok((e, initial, Some(a)))
+}
+
+/// The aids `opt` asks for, in the order they act after each step.
+pub fn aids<T: Real>(
+    rec: &Recording,
+    opt: &AidedOptions,
+    an: &AidedNav<T>,
+) -> Vec<Box<dyn Aid<T>>> {
+    let mut aids: Vec<Box<dyn Aid<T>>> = vec![];
+    if opt.vehicle.is_some() {
+        let mut v = vehicle::VehicleAid::default();
+        v.report.odometer_unused = rec
+            .moving
+            .as_ref()
+            .and_then(|m| m.odometer.as_ref())
+            .is_some_and(|o| !o.is_empty());
+        aids.push(Box::new(v));
+    }
+    if opt.learn_noise {
+        aids.push(Box::new(learn::NoiseLearner::<T>::new(*an.kf.config())));
+    }
+    aids
+}
+
+/// Hands the navigator the fixes due before a step: those up to the
+/// midpoint to the next sample (a logger's samples need not be evenly
+/// spaced).
+pub struct FixFeed {
+    next: usize,
+}
+
+impl FixFeed {
+    /// At the first fix.
+    pub fn new() -> Self {
+        Self { next: 0 }
+    }
+
+    /// The fixes of `fixes` up to `upto_s` into `an` (none before the
+    /// run's first step, `first`: counted refused in `run`); the last one
+    /// handed.
+    pub fn before_step<T: Real>(
+        &mut self,
+        an: &mut AidedNav<T>,
+        fixes: &[GnssRow],
+        upto_s: f64,
+        first: bool,
+        run: &mut AidedRun,
+    ) -> Option<GnssFix> {
+        let mut handed = None;
+        while let Some(f) = fixes.get(self.next).filter(|f| f.t_s <= upto_s) {
+            self.next += 1;
+            if first {
+                run.refused += 1;
+                continue;
+            }
+            let fix = f.to_fix();
+            an.gnss(&fix);
+            handed = Some(fix);
+        }
+        handed
+    }
+}
+
+impl Default for FixFeed {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The filter's own solution (the board sends the same) as an output row
+/// on the tangent plane, with the attitude's DCM (`b` to `n`).
+pub fn solution_row<T: Real>(
+    an: &AidedNav<T>,
+    table: &TableAngle<T>,
+    step: &AidedStep<T>,
+    t_s: f64,
+    earth: &LocalEarth<T>,
+    tangent: &Tangent,
+) -> (AidedRow, Matrix3<f64>) {
+    let sol = an.solution(table);
+    let c_b_n = quat_to_dcm(&sol.q_b_n).map(|x| x.to_f64());
+    let ned = tangent.ned_to(&earth.point_at(&sol.p_n));
+    let v_n = sol.v_n.map(|x| x.to_f64());
+    let f64s = |a: [T; 3]| a.map(|x| x.to_f64());
+    let [roll, pitch, heading] =
+        [sol.euler.roll, sol.euler.pitch, sol.euler.heading].map(|x| x.to_f64().to_degrees());
+    let row = AidedRow {
+        traj: TrajRow {
+            t_s,
+            ned_m: [ned.x, ned.y, ned.z],
+            v_mps: [v_n.x, v_n.y, v_n.z],
+            rph_deg: [roll, pitch, heading.rem_euclid(360.0)],
+            faults: an.counts.steps_refused,
+        },
+        sigma_p_m: f64s(sol.sigma_p_m),
+        sigma_v_mps: f64s(sol.sigma_v_mps),
+        sigma_att_deg: f64s(sol.sigma_euler_rad).map(f64::to_degrees),
+        fix: step.fix.is_some(),
+        fix_taken: step.fix_horizontal_taken,
+        still: step.still,
+        zupt: step.zupt,
+    };
+    (row, c_b_n)
+}
+
+/// The NEES of `row` (attitude `c_b_n`) against the truth `tr` over every
+/// state the trajectory reports but height (north, east, the three
+/// velocities, the attitude's rotation error `phi` about north, east and
+/// down: `c_true = (I + [phi x]) c_est`), with the filter's covariance:
+/// (8-dof NEES, the attitude's own 3-dof NEES when its block factors).
+pub fn nees_against<T: Real>(
+    kf: &Eskf<T>,
+    row: &AidedRow,
+    c_b_n: &Matrix3<f64>,
+    tr: &TruthRow,
+) -> Option<(f64, Option<f64>)> {
+    let [r, p, h] = tr.euler_deg;
+    let c_true = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(r, p, h)));
+    let d = c_true * c_b_n.transpose();
+    let (ned, v) = (row.traj.ned_m, row.traj.v_mps);
+    let e = nalgebra::SVector::<f64, 8>::from_column_slice(&[
+        tr.p_n_m[0] - ned[0],
+        tr.p_n_m[1] - ned[1],
+        tr.v_n_mps[0] - v[0],
+        tr.v_n_mps[1] - v[1],
+        tr.v_n_mps[2] - v[2],
+        0.5 * (d[(2, 1)] - d[(1, 2)]),
+        0.5 * (d[(0, 2)] - d[(2, 0)]),
+        0.5 * (d[(1, 0)] - d[(0, 1)]),
+    ]);
+    let idx = [
+        I_P,
+        I_P + 1,
+        I_V,
+        I_V + 1,
+        I_V + 2,
+        I_PHI,
+        I_PHI + 1,
+        I_PHI + 2,
+    ];
+    let p8 = nalgebra::SMatrix::<f64, 8, 8>::from_fn(|r, c| {
+        idx.get(r)
+            .zip(idx.get(c))
+            .and_then(|(i, j)| kf.p.get((*i, *j)))
+            .map_or(f64::NAN, |x| x.to_f64())
+    });
+    let ch = p8.cholesky()?;
+    let nees = e.dot(&ch.solve(&e));
+    let pa = p8.fixed_view::<3, 3>(5, 5).into_owned();
+    let ea = e.fixed_rows::<3>(5).into_owned();
+    let att = pa.cholesky().map(|ca| ea.dot(&ca.solve(&ea)));
+    Some((nees, att))
+}
+
+/// The navigator's counts and each aid's report into the run.
+pub fn finish<T: Real>(an: &AidedNav<T>, aids: Vec<Box<dyn Aid<T>>>, run: &mut AidedRun) {
+    run.rejected = an.kf.rejected;
+    run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
+    run.zupts = an.counts.zupts;
+    run.zarus = an.counts.zarus;
+    run.still_refuted = an.counts.still_refuted;
+    run.reinits = an.counts.reinits;
+    run.height_reinits = an.counts.height_reinits;
+    run.faults = an.counts.steps_refused;
+    for a in aids {
+        a.report(run);
+    }
+}
+
+/// Runs the pipeline over every sample of `rec`.
+///
+/// # Errors
+/// What [`start`] refuses.
+pub fn run<T: Real>(
+    rec: &Recording,
+    opt: &AidedOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<AidedRun> {
+    let (mut an, mut run, input) = start::<T>(rec, opt)?;
+    let mut aids = aids(rec, opt, &an);
+    let earth = *an.nav().earth();
+    let tangent = earth.origin.tangent();
+    let mut feed = FixFeed::new();
+    let mut last_fix_s = f64::NEG_INFINITY;
+    let n = rec.imu.len();
+    let half = 0.5 / rec.meta.imu_rate_hz;
+    let every_s = rec.meta.imu_rate_hz.round().max(1.0) as usize;
+    for (k, r) in rec.imu.iter().enumerate() {
+        let t = r.t_s;
+        let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
+        let handed = feed.before_step(&mut an, &input.fixes, upto, k == 0, &mut run);
+        let (table, sample) = (input.table::<T>(t), input.sample::<T>(k));
+        let reinits_before = an.counts.reinits;
+        let mut step = AidedStep::default();
+        if let (true, Some(s)) = (k > 0, sample.as_ref()) {
+            let rate = T::lit(input.track.at(t).rate);
+            match an.step(s, &table, rate) {
+                Ok(st) => step = st,
+                Err(_) => continue,
+            }
+            // A fix's position and velocity updates, a sample apart:
+            // each its own NIS over its own components.
+            for (nis, used) in [step.fix, step.fix_velocity].into_iter().flatten() {
+                run.nis.push((t, nis.to_f64(), used));
+            }
+            if step.fix.is_some() {
+                last_fix_s = t;
+            }
+            let at = StepView {
+                t_s: t,
+                sample: s,
+                table: &table,
+                table_rate: rate,
+                handed: handed.as_ref(),
+                step: &step,
+                aided: t - last_fix_s <= 2.0,
+            };
+            for a in aids.iter_mut() {
+                a.after_step(&mut an, &at);
+            }
+        }
+        let (row, c_b_n) = solution_row(&an, &table, &step, t, &earth, &tangent);
+        run.rows.push(row);
+        if an.counts.reinits > reinits_before {
+            run.reinit_at.push((t, super::reinit_jump_m(&run.rows)));
+        }
+        if k % every_s == 0 {
+            if let Some(tr) = recording::moving::truth_at(input.truth, t) {
+                run.nees_diag.push((t, super::diagonal_nees(&row, &tr)));
+                if let Some((nees, att)) = nees_against(&an.kf, &row, &c_b_n, &tr) {
+                    run.nees.push((t, nees, 8));
+                    if let Some(a) = att {
+                        run.nees_attitude.push((t, a));
+                    }
+                }
+            }
+        }
+        if k % 20_000 == 0 {
+            progress(k as f64 / n as f64);
+        }
+    }
+    finish(&an, aids, &mut run);
+    progress(1.0);
+    Ok(run)
+}
