@@ -982,27 +982,16 @@ impl<T: Real> Eskf<T> {
         self.update_rows(rows, z, sigma, ws)
     }
 
-    /// Re-initialises position and velocity from a measurement the gate
-    /// keeps refusing while it agrees with itself (a filter lost after an
-    /// outage): the error estimate of position and velocity set to the
-    /// whole innovations `zp` (the antenna's, m, NED) and `zv` (m/s), their
-    /// covariance to the measurement's own (`sigma_p` per axis, m;
-    /// `sigma_v`, m/s) with no correlation to the other states, and the
-    /// receiver's correlated error restarted at its prior.
-    pub fn reinit_position_velocity(
-        &mut self,
-        zp: &Vector3<T>,
-        zv: &Vector3<T>,
-        sigma_p: &Vector3<T>,
-        sigma_v: T,
-    ) {
-        self.reinit_axes(zp, zv, sigma_p, sigma_v, [true; 3]);
-    }
-
-    /// [`Self::reinit_position_velocity`] on the NED axes `axes` says
-    /// (`[false, false, true]`: the vertical channel alone, a height lost
-    /// while the horizontal fixes are taken); the other axes keep their
-    /// estimate and covariance.
+    /// Re-initialises position and velocity on the NED axes `axes` says
+    /// from a measurement the gate keeps refusing while it agrees with
+    /// itself (a filter lost after an outage; `[false, false, true]`: the
+    /// vertical channel alone, a height lost while the horizontal fixes
+    /// are taken): on those axes the error estimate of position and
+    /// velocity set to the whole innovations `zp` (the antenna's, m, NED)
+    /// and `zv` (m/s), their covariance to the measurement's own
+    /// (`sigma_p` per axis, m; `sigma_v`, m/s) with no correlation to the
+    /// other states, and the receiver's correlated error restarted at its
+    /// prior; the other axes keep their estimate and covariance.
     pub fn reinit_axes(
         &mut self,
         zp: &Vector3<T>,
