@@ -63,7 +63,7 @@
 
 use crate::attitude::quat_to_dcm;
 use crate::earth::{earth_rate_n, transport_rate_n, GeoPoint};
-use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma, Workspace, I_V};
+use crate::eskf::{Eskf, EskfConfig, FilterError, InitialSigma, Workspace, I_V, N};
 use crate::real::Real;
 use crate::strapdown::{ImuSample, Strapdown, StrapdownConfig};
 use crate::table::{q_s_b, Axis, TableAngle};
@@ -360,10 +360,10 @@ pub struct AidedStep<T: Real> {
 
 /// The aided navigator.
 #[derive(Clone, Debug)]
-pub struct AidedNav<T: Real> {
+pub struct AidedNav<T: Real, const M: usize = N> {
     nav: Strapdown<T>,
     /// The filter (its covariance, estimates and counters).
-    pub kf: Eskf<T>,
+    pub kf: Eskf<T, M>,
     cfg: AidedConfig,
     origin: OriginE7,
     lever_b: Vector3<T>,
@@ -647,7 +647,7 @@ fn c_s_b<T: Real>(axis: Axis, angle: &TableAngle<T>) -> Matrix3<T> {
     quat_to_dcm(&q_s_b(axis, angle.rad))
 }
 
-impl<T: Real> AidedNav<T> {
+impl<T: Real, const M: usize> AidedNav<T, M> {
     /// Starts at `origin` at rest, the vehicle's attitude `q_b_n` (`b` to
     /// `n`), the table at `table`, with the first raw sample.
     ///
@@ -758,7 +758,7 @@ impl<T: Real> AidedNav<T> {
             self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
         }
         for i in crate::eskf::I_V..crate::eskf::I_V + 3 {
-            for j in 0..crate::eskf::N {
+            for j in 0..M {
                 for idx in [(i, j), (j, i)] {
                     if let Some(x) = self.kf.p.get_mut(idx) {
                         *x = T::zero();
@@ -829,20 +829,23 @@ impl<T: Real> AidedNav<T> {
     pub fn update_base_velocity(
         &mut self,
         table: &TableAngle<T>,
-        m: &[(Vector3<T>, T, T)],
+        m: &[crate::vehicle::BaseVelocity<T>],
     ) -> Result<crate::eskf::UpdateReport<T>, FilterError> {
         let c_b_n = self.c_b_n(table);
         let v_n = self.nav.state().v_n;
         let mut rep = crate::eskf::UpdateReport::default();
         let mut err = None;
-        for (e_b, value, sigma) in m {
-            let (h, z) = crate::vehicle::velocity_b_row(e_b, *value, &c_b_n, &v_n);
-            match self.kf.update_scalar(&h, z, *sigma * *sigma) {
+        for (i, bv) in m.iter().enumerate() {
+            let (h, z) = bv.row::<M>(&c_b_n, &v_n);
+            match self.kf.update_scalar(&h, z, bv.sigma_mps * bv.sigma_mps) {
                 Ok(Some(nis)) => {
                     rep.nis += nis;
                     rep.used += 1;
                 }
-                Ok(None) => rep.rejected += 1,
+                Ok(None) => {
+                    rep.rejected += 1;
+                    rep.rejected_mask |= 1u8.checked_shl(i as u32).unwrap_or(0);
+                }
                 Err(e) => {
                     err = Some(e);
                     break;
@@ -967,7 +970,7 @@ impl<T: Real> AidedNav<T> {
         raw: &ImuSample<T>,
         table: &TableAngle<T>,
         table_rate: T,
-        ws: &mut Workspace<T>,
+        ws: &mut Workspace<T, M>,
     ) -> Result<AidedStep<T>, NavError> {
         self.step_opt(raw, table, table_rate, Some(ws))
     }
@@ -978,7 +981,7 @@ impl<T: Real> AidedNav<T> {
         raw: &ImuSample<T>,
         table: &TableAngle<T>,
         table_rate: T,
-        mut ws: Option<&mut Workspace<T>>,
+        mut ws: Option<&mut Workspace<T, M>>,
     ) -> Result<AidedStep<T>, NavError> {
         let s = ImuSample {
             t_us: raw.t_us,
@@ -1111,7 +1114,7 @@ impl<T: Real> AidedNav<T> {
     /// A zero-velocity update against the velocity `v_n` (m/s, `n`) over a
     /// sample interval `dt` (s); whether it was made.
     #[inline(never)]
-    fn zero_velocity(&mut self, v_n: &Vector3<T>, dt: T, ws: Option<&mut Workspace<T>>) -> bool {
+    fn zero_velocity(&mut self, v_n: &Vector3<T>, dt: T, ws: Option<&mut Workspace<T, M>>) -> bool {
         let sigma = Vector3::repeat(self.zupt_sigma(dt));
         let ok = self.kf.update_velocity_opt(&(-v_n), &sigma, ws).is_ok();
         if ok {
@@ -1136,7 +1139,7 @@ impl<T: Real> AidedNav<T> {
     /// The last fix's velocity update, waiting since the sample before:
     /// its NIS and components used.
     #[inline(never)]
-    fn velocity_next(&mut self, ws: Option<&mut Workspace<T>>) -> Option<(T, u8)> {
+    fn velocity_next(&mut self, ws: Option<&mut Workspace<T, M>>) -> Option<(T, u8)> {
         self.vel_next = false;
         let r = self
             .kf
@@ -1154,7 +1157,7 @@ impl<T: Real> AidedNav<T> {
         &mut self,
         fix: &GnssFix,
         at: &Past<T>,
-        mut ws: Option<&mut Workspace<T>>,
+        mut ws: Option<&mut Workspace<T, M>>,
     ) -> (T, u8, bool) {
         let l_n = at.c_b_n * self.lever_b;
         let zp = self.fix_position_n(fix) - (at.p_n + l_n);
@@ -1288,7 +1291,7 @@ impl<T: Real> AidedNav<T> {
         &mut self,
         w_ie_s: &Vector3<T>,
         table_rate: T,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) -> Result<crate::eskf::UpdateReport<T>, FilterError> {
         let n = T::lit(ZUPT_WINDOW as f64);
         let mean = self

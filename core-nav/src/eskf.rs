@@ -93,22 +93,29 @@ pub const I_M: usize = 18;
 /// (row-major).
 pub const I_MA: usize = 27;
 
+/// The most states a host may add after the board's `N` (an `Eskf<T, M>`
+/// with `N < M <= N + AUX_MAX`): random constants or random walks with no
+/// other dynamics (a vehicle's mounting, an odometer's scale), whose
+/// measurement rows the host makes ([`Eskf::update_scalar`]) and whose
+/// corrections it takes ([`Eskf::take_aux`]).
+pub const AUX_MAX: usize = 4;
+
 /// Covariance of the error state.
-pub type Cov<T> = SMatrix<T, N, N>;
+pub type Cov<T, const M: usize = N> = SMatrix<T, M, M>;
 /// An error-state vector (or a measurement row).
-pub type State<T> = SVector<T, N>;
+pub type State<T, const M: usize = N> = SVector<T, M>;
 
 /// Scratch for a propagation: two `N x N` matrices (10 KiB in f32). A
 /// board keeps one in a static and passes it in (`*_in` methods), so the
 /// propagation takes none of the stack; the other methods make one on the
 /// stack when they propagate.
 #[derive(Clone, Debug)]
-pub struct Workspace<T: Real> {
-    b: Cov<T>,
-    w: Cov<T>,
+pub struct Workspace<T: Real, const M: usize = N> {
+    b: Cov<T, M>,
+    w: Cov<T, M>,
 }
 
-impl<T: Real> Workspace<T> {
+impl<T: Real, const M: usize> Workspace<T, M> {
     /// Zeros.
     pub fn new() -> Self {
         Self {
@@ -118,7 +125,7 @@ impl<T: Real> Workspace<T> {
     }
 }
 
-impl<T: Real> Default for Workspace<T> {
+impl<T: Real, const M: usize> Default for Workspace<T, M> {
     fn default() -> Self {
         Self::new()
     }
@@ -143,6 +150,7 @@ impl Eskf<f32> {
             rejected: 0,
             refused: 0,
             elapsed_s: 0.0,
+            aux: [(0.0, 0.0); AUX_MAX],
             seen: Innovations {
                 n: 0,
                 v2: 0.0,
@@ -365,11 +373,11 @@ pub struct Innovations<T: Real> {
 /// The filter: covariance, the error estimate since the last correction,
 /// the bias estimates, counters.
 #[derive(Clone, Debug)]
-pub struct Eskf<T: Real> {
+pub struct Eskf<T: Real, const M: usize = N> {
     /// Covariance of `dx`.
-    pub p: Cov<T>,
+    pub p: Cov<T, M>,
     /// Error estimate not yet handed to the mechanization.
-    pub dx: State<T>,
+    pub dx: State<T, M>,
     /// Gyro bias estimate in `s`, rad/s (subtract from the gyro samples).
     pub bias_g: Vector3<T>,
     /// Accelerometer bias estimate in `s`, m/s^2.
@@ -398,9 +406,12 @@ pub struct Eskf<T: Real> {
     elapsed_s: f64,
     /// The innovations since the host last took them.
     seen: Innovations<T>,
+    /// The host's own states `N..M` ([`Self::set_aux`]): prior variance
+    /// and random-walk density (their unit^2 and unit^2/s).
+    aux: [(f64, f64); AUX_MAX],
 }
 
-impl<T: Real> Eskf<T> {
+impl<T: Real, const M: usize> Eskf<T, M> {
     /// A filter with diagonal initial covariance (biases at their initial
     /// sigma).
     pub fn new(cfg: EskfConfig, init: &InitialSigma) -> Self {
@@ -418,6 +429,7 @@ impl<T: Real> Eskf<T> {
             rejected: 0,
             refused: 0,
             elapsed_s: 0.0,
+            aux: [(0.0, 0.0); AUX_MAX],
             seen: Innovations {
                 n: 0,
                 v2: T::zero(),
@@ -459,8 +471,8 @@ impl<T: Real> Eskf<T> {
     /// Starts again in place (no 5 KiB covariance built on the stack): as
     /// [`Self::new`] would, keeping [`Self::batch`].
     pub fn reset(&mut self, cfg: EskfConfig, init: &InitialSigma) {
-        let mut d = State::<T>::zeros();
-        let block = |d: &mut State<T>, i: usize, v: Vector3<f64>| {
+        let mut d = State::<T, M>::zeros();
+        let block = |d: &mut State<T, M>, i: usize, v: Vector3<f64>| {
             d.fixed_rows_mut::<3>(i)
                 .copy_from(&v.map(|s| T::lit(s * s)));
         };
@@ -488,8 +500,17 @@ impl<T: Real> Eskf<T> {
         }
         let [gh, gv] = cfg.gnss_corr_sigma_m;
         block(&mut d, I_GP, Vector3::new(gh, gh, gv));
+        for (k, (var, _)) in self.aux.iter().enumerate() {
+            if let Some(x) = d.get_mut(N + k) {
+                *x = T::lit(*var);
+            }
+        }
         self.p.fill(T::zero());
-        self.p.set_diagonal(&d);
+        for (i, v) in d.iter().enumerate() {
+            if let Some(x) = self.p.get_mut((i, i)) {
+                *x = *v;
+            }
+        }
         self.dx = State::zeros();
         self.bias_g = Vector3::zeros();
         self.bias_a = Vector3::zeros();
@@ -513,7 +534,7 @@ impl<T: Real> Eskf<T> {
         w_ie_n: &Vector3<T>,
         w_en_n: &Vector3<T>,
         w_is_s: &Vector3<T>,
-    ) -> Cov<T> {
+    ) -> Cov<T, M> {
         let mut p = Pending::default();
         p.add(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, T::one());
         self.system_integral(&p)
@@ -522,20 +543,24 @@ impl<T: Real> Eskf<T> {
     /// `F` integrated over the pending interval: `F` is linear in `c_s_n`,
     /// `f_n`, the rates and `c_s_n e_r w_c`, so its integral is `F` of
     /// their integrals.
-    fn system_integral(&self, q: &Pending<T>) -> Cov<T> {
-        let mut f = Cov::<T>::zeros();
+    fn system_integral(&self, q: &Pending<T>) -> Cov<T, M> {
+        let mut f = Cov::<T, M>::zeros();
         system_integral_into(&self.cfg, q, &mut f);
         f
     }
 }
 
 /// `F` integrated over the pending interval, into `f`.
-fn system_integral_into<T: Real>(cfg: &EskfConfig, q: &Pending<T>, f: &mut Cov<T>) {
+fn system_integral_into<T: Real, const M: usize>(
+    cfg: &EskfConfig,
+    q: &Pending<T>,
+    f: &mut Cov<T, M>,
+) {
     {
         f.fill(T::zero());
         // Element by element through `get_mut` (a view's bounds assert
         // would link a panic path on the board).
-        let put = |f: &mut Cov<T>, r: usize, c: usize, m: &Matrix3<T>| {
+        let put = |f: &mut Cov<T, M>, r: usize, c: usize, m: &Matrix3<T>| {
             for (j, col) in m.column_iter().enumerate() {
                 for (i, v) in col.iter().enumerate() {
                     if let Some(x) = f.get_mut((r + i, c + j)) {
@@ -575,7 +600,7 @@ fn system_integral_into<T: Real>(cfg: &EskfConfig, q: &Pending<T>, f: &mut Cov<T
     }
 }
 
-impl<T: Real> Eskf<T> {
+impl<T: Real, const M: usize> Eskf<T, M> {
     /// Predicts over `dt_s` (see [`Self::system`] for the arguments). The
     /// system's integrals are gathered over [`Self::batch`] predictions
     /// and then propagated at once ([`Self::propagate`]; an update
@@ -606,7 +631,7 @@ impl<T: Real> Eskf<T> {
         w_en_n: &Vector3<T>,
         w_is_s: &Vector3<T>,
         dt_s: T,
-        ws: &mut Workspace<T>,
+        ws: &mut Workspace<T, M>,
     ) {
         self.predict_opt(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s, Some(ws));
     }
@@ -620,7 +645,7 @@ impl<T: Real> Eskf<T> {
         w_en_n: &Vector3<T>,
         w_is_s: &Vector3<T>,
         dt_s: T,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) {
         self.pending.add(c_s_n, f_n, w_ie_n, w_en_n, w_is_s, dt_s);
         if self.pending.n >= self.batch.max(1) {
@@ -629,7 +654,7 @@ impl<T: Real> Eskf<T> {
     }
 
     /// Propagates what is pending, in `ws` or a workspace of its own.
-    fn prop(&mut self, ws: Option<&mut Workspace<T>>) {
+    fn prop(&mut self, ws: Option<&mut Workspace<T, M>>) {
         match ws {
             Some(w) => self.propagate_in(w),
             None => self.propagate(),
@@ -648,7 +673,7 @@ impl<T: Real> Eskf<T> {
 
     /// [`Self::propagate`] in the board's workspace.
     #[inline(never)]
-    pub fn propagate_in(&mut self, ws: &mut Workspace<T>) {
+    pub fn propagate_in(&mut self, ws: &mut Workspace<T, M>) {
         if self.pending.n == 0 {
             return;
         }
@@ -671,7 +696,7 @@ impl<T: Real> Eskf<T> {
             }
         };
         let c = &self.cfg;
-        let mut qd = State::<T>::zeros();
+        let mut qd = State::<T, M>::zeros();
         let [gh, gv] = c.gnss_corr_sigma_m;
         let gq = |s: f64| bias_q(s, c.gnss_corr_tau_s);
         // The warm-up's density at the interval's middle.
@@ -721,11 +746,11 @@ impl<T: Real> Eskf<T> {
         // summed on the fly over B's nonzeros (X[r, c] = sum_k B[c, k]
         // mt[k, r]), once per pair (i <= j: X is symmetric) and the same
         // sum added to (i, j) and (j, i), so P stays symmetric to the bit.
-        let mut nz = [[0u8; N]; N];
-        let mut nz_len = [0usize; N];
+        let mut nz = [[0u8; M]; M];
+        let mut nz_len = [0usize; M];
         for ((col, list), len) in b
             .as_slice()
-            .as_chunks::<N>()
+            .as_chunks::<M>()
             .0
             .iter()
             .zip(nz.iter_mut())
@@ -742,12 +767,12 @@ impl<T: Real> Eskf<T> {
         }
         let (ms, bcols, mcols) = (
             mt.as_slice(),
-            b.as_slice().as_chunks::<N>().0,
-            mt.as_slice().as_chunks::<N>().0,
+            b.as_slice().as_chunks::<M>().0,
+            mt.as_slice().as_chunks::<M>().0,
         );
         let at = |s: &[T], i: usize| s.get(i).copied().unwrap_or_else(T::zero);
         let ps = self.p.as_mut_slice();
-        for j in 0..N {
+        for j in 0..M {
             let (Some(bj), Some(list)) = (
                 bcols.get(j),
                 nz.get(j)
@@ -763,7 +788,7 @@ impl<T: Real> Eskf<T> {
                         x += *bv * *mv;
                     }
                 }
-                let (ij, ji) = (j * N + i, i * N + j);
+                let (ij, ji) = (j * M + i, i * M + j);
                 let v = (at(ms, ij) + at(ms, ji)) + x;
                 if let Some(p) = ps.get_mut(ij) {
                     *p += v;
@@ -773,6 +798,11 @@ impl<T: Real> Eskf<T> {
                         *p += v;
                     }
                 }
+            }
+        }
+        for (k, (_, q)) in self.aux.iter().enumerate() {
+            if let Some(x) = qd.get_mut(N + k) {
+                *x = T::lit(*q) * dt_s;
             }
         }
         for (i, q) in qd.iter().enumerate() {
@@ -792,17 +822,17 @@ impl<T: Real> Eskf<T> {
     ///
     /// # Errors
     /// Non-finite `z`, `r` or row; `r` not positive.
-    pub fn update_scalar(&mut self, h: &State<T>, z: T, r: T) -> Result<Option<T>, FilterError> {
+    pub fn update_scalar(&mut self, h: &State<T, M>, z: T, r: T) -> Result<Option<T>, FilterError> {
         self.update_scalar_opt(h, z, r, None)
     }
 
     #[inline(never)]
     fn update_scalar_opt(
         &mut self,
-        h: &State<T>,
+        h: &State<T, M>,
         z: T,
         r: T,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) -> Result<Option<T>, FilterError> {
         if !(z.is_finite() && r.is_finite() && h.iter().all(|x| x.is_finite())) {
             self.refused += 1;
@@ -843,7 +873,7 @@ impl<T: Real> Eskf<T> {
         for ((col, (&kj, &phj)), &ahj) in self
             .p
             .as_mut_slice()
-            .as_chunks_mut::<N>()
+            .as_chunks_mut::<M>()
             .0
             .iter_mut()
             .zip(k.as_slice().iter().zip(ph.as_slice()))
@@ -860,10 +890,10 @@ impl<T: Real> Eskf<T> {
 
     fn update_rows(
         &mut self,
-        rows: [State<T>; 3],
+        rows: [State<T, M>; 3],
         z: &Vector3<T>,
         sigma: &Vector3<T>,
-        mut ws: Option<&mut Workspace<T>>,
+        mut ws: Option<&mut Workspace<T, M>>,
     ) -> Result<UpdateReport<T>, FilterError> {
         if !(z.iter().all(|x| x.is_finite()) && sigma.iter().all(|x| x.is_finite())) {
             self.refused += 1;
@@ -910,12 +940,12 @@ impl<T: Real> Eskf<T> {
         z: &Vector3<T>,
         l_n: &Vector3<T>,
         sigma: &Vector3<T>,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) -> Result<UpdateReport<T>, FilterError> {
         let lx = -skew(l_n);
         let z = z - self.gnss_bias;
         let z = &z;
-        let mut rows = [State::<T>::zeros(); 3];
+        let mut rows = [State::<T, M>::zeros(); 3];
         for (i, (h, lrow)) in rows.iter_mut().zip(lx.row_iter()).enumerate() {
             h.fixed_rows_mut::<3>(I_P).copy_from(&unit(i));
             h.fixed_rows_mut::<3>(I_PHI).copy_from(&lrow.transpose());
@@ -941,9 +971,9 @@ impl<T: Real> Eskf<T> {
         &mut self,
         z: &Vector3<T>,
         sigma: &Vector3<T>,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) -> Result<UpdateReport<T>, FilterError> {
-        let mut rows = [State::<T>::zeros(); 3];
+        let mut rows = [State::<T, M>::zeros(); 3];
         for (i, h) in rows.iter_mut().enumerate() {
             h.fixed_rows_mut::<3>(I_V).copy_from(&unit(i));
         }
@@ -972,9 +1002,9 @@ impl<T: Real> Eskf<T> {
         z: &Vector3<T>,
         w_s: &Vector3<T>,
         sigma: &Vector3<T>,
-        ws: Option<&mut Workspace<T>>,
+        ws: Option<&mut Workspace<T, M>>,
     ) -> Result<UpdateReport<T>, FilterError> {
-        let mut rows = [State::<T>::zeros(); 3];
+        let mut rows = [State::<T, M>::zeros(); 3];
         for (i, h) in rows.iter_mut().enumerate() {
             h.fixed_rows_mut::<3>(I_BG).copy_from(&unit(i));
             h.fixed_rows_mut::<3>(I_M + 3 * i).copy_from(w_s);
@@ -1006,7 +1036,7 @@ impl<T: Real> Eskf<T> {
             .iter()
             .flat_map(|b| (0..3).filter(|k| on(*k)).map(move |k| *b + k));
         for i in rows {
-            for j in 0..N {
+            for j in 0..M {
                 for idx in [(i, j), (j, i)] {
                     if let Some(x) = self.p.get_mut(idx) {
                         *x = T::zero();
@@ -1063,8 +1093,104 @@ impl<T: Real> Eskf<T> {
             }
         }
         self.gnss_bias += v(I_GP);
-        self.dx = State::zeros();
+        for x in self.dx.iter_mut().take(N) {
+            *x = T::zero();
+        }
         out
+    }
+
+    /// The host state `k`'s prior 1-sigma `sigma` (its unit) and
+    /// random-walk density `q_per_s` (unit^2/s), kept through
+    /// [`Self::reset`]; its covariance row set to the prior, uncorrelated.
+    ///
+    /// # Errors
+    /// `k` not a host state of this filter (`N + k >= M`), a non-finite or
+    /// negative term.
+    pub fn set_aux(&mut self, k: usize, sigma: f64, q_per_s: f64) -> Result<(), FilterError> {
+        let ok = sigma.is_finite() && q_per_s.is_finite() && sigma >= 0.0 && q_per_s >= 0.0;
+        let (Some(slot), true, true) = (self.aux.get_mut(k), N + k < M, ok) else {
+            return Err(FilterError::BadSigma);
+        };
+        *slot = (sigma * sigma, q_per_s);
+        self.set_aux_row(N + k, sigma * sigma);
+        Ok(())
+    }
+
+    /// The host state `k` started as `row . dx + w`, a linear function of
+    /// the other states plus a white error of 1-sigma `sigma_white`: its
+    /// covariance with every state `P row`, its variance `row P row^T +
+    /// sigma_white^2` (kept as its prior through [`Self::reset`]); its
+    /// random-walk density `q_per_s`. (A vehicle's mounting read off the
+    /// filter's own velocity in `b` carries the filter's heading error:
+    /// this says so, where an uncorrelated prior would not.)
+    ///
+    /// # Errors
+    /// As [`Self::set_aux`]; a non-finite row.
+    pub fn set_aux_as(
+        &mut self,
+        k: usize,
+        row: &State<T, M>,
+        sigma_white: f64,
+        q_per_s: f64,
+    ) -> Result<(), FilterError> {
+        if !row.iter().all(|x| x.is_finite()) {
+            return Err(FilterError::NonFinite);
+        }
+        self.set_aux(k, sigma_white, q_per_s)?;
+        let i = N + k;
+        let mut row = *row;
+        if let Some(x) = row.get_mut(i) {
+            *x = T::zero();
+        }
+        #[allow(clippy::op_ref)]
+        let pr = &self.p * &row;
+        let var = row.dot(&pr) + T::lit(sigma_white * sigma_white);
+        for (j, v) in pr.iter().enumerate() {
+            for idx in [(i, j), (j, i)] {
+                if let Some(x) = self.p.get_mut(idx) {
+                    *x = *v;
+                }
+            }
+        }
+        if let Some(x) = self.p.get_mut((i, i)) {
+            *x = var;
+        }
+        let dxi = row.dot(&self.dx);
+        if let Some(x) = self.dx.get_mut(i) {
+            *x = dxi;
+        }
+        if let Some(a) = self.aux.get_mut(k) {
+            a.0 = var.to_f64();
+        }
+        Ok(())
+    }
+
+    fn set_aux_row(&mut self, i: usize, var: f64) {
+        for j in 0..M {
+            for idx in [(i, j), (j, i)] {
+                if let Some(x) = self.p.get_mut(idx) {
+                    *x = T::zero();
+                }
+            }
+        }
+        if let Some(x) = self.p.get_mut((i, i)) {
+            *x = T::lit(var);
+        }
+        if let Some(x) = self.dx.get_mut(i) {
+            *x = T::zero();
+        }
+    }
+
+    /// Hands the host states' error estimates over (index `k` for state
+    /// `N + k`; zero beyond `M`) and restarts them at zero: the host adds
+    /// them to its own estimates.
+    pub fn take_aux(&mut self) -> [T; AUX_MAX] {
+        core::array::from_fn(|k| {
+            self.dx
+                .get_mut(N + k)
+                .map(|x| core::mem::replace(x, T::zero()))
+                .unwrap_or_else(T::zero)
+        })
     }
 
     /// A raw gyro sample corrected by the estimates: `(w - bias_g) - M (w -
@@ -1171,17 +1297,17 @@ impl<T: Real> Pending<T> {
 /// `out = a c`, column by column (`out[:, i] = sum_k c[k, i] a[:, k]`, k
 /// ascending), zeros of `c` skipped: with `c = b^T` the sums of `a b^T`
 /// in the order the filter has always summed them.
-fn mul_into<T: Real>(out: &mut Cov<T>, a: &Cov<T>, c: &Cov<T>) {
+fn mul_into<T: Real, const M: usize>(out: &mut Cov<T, M>, a: &Cov<T, M>, c: &Cov<T, M>) {
     out.fill(T::zero());
-    let cols = c.as_slice().as_chunks::<N>().0;
+    let cols = c.as_slice().as_chunks::<M>().0;
     for (out_col, c_col) in out
         .as_mut_slice()
-        .as_chunks_mut::<N>()
+        .as_chunks_mut::<M>()
         .0
         .iter_mut()
         .zip(cols)
     {
-        for (&v, a_col) in c_col.iter().zip(a.as_slice().as_chunks::<N>().0.iter()) {
+        for (&v, a_col) in c_col.iter().zip(a.as_slice().as_chunks::<M>().0.iter()) {
             if v != T::zero() {
                 for (o, x) in out_col.iter_mut().zip(a_col) {
                     *o += v * *x;

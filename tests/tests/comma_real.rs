@@ -115,22 +115,25 @@ fn pose_forward_deg(span_s: f64) -> (f64, f64) {
 }
 
 #[test]
-fn a_car_s_constraints_stay_off_where_its_forward_axis_is_not_known() {
-    // A straight highway and a phone-class gyro: the filter's heading is
-    // known to about 10 deg, and so is the forward axis's yaw in b (the
-    // velocity's direction in b turns with the heading); its pitch to 2
-    // deg. At 8-20 m/s both put more than the road's 0.1 m/s into the
-    // cross velocities as one constant: the constraints stay off, and the
-    // outage ends where it ends without them.
+fn a_car_s_constraints_and_odometer_bridge_15_s_from_a_moving_start() {
+    // The car moves from its first sample: the forward axis is read off
+    // the filter's velocity in b at the first straight stretch with
+    // fixes, its error carried as filter states tied to the heading's;
+    // the CAN speed (odometer.csv) with its scale estimated. The issue's
+    // done-when: a 15-20 s outage at least 2x closer than without.
     for start in [25.0, 35.0] {
         let (none, _) = outage_end(None, start);
         let (car, s) = outage_end(Some(Vehicle::Car), start);
+        println!("outage at {start} s: {none:.2} m without, {car:.2} m with --vehicle car");
+        assert!(car <= 0.5 * none, "{start}: {car} vs {none}");
         let v = s.vehicle.unwrap();
         let f = v.forward.expect("the forward axis found");
-        // The pose's own: its velocity in its body frame over the 25 s
-        // the axis was found from (yaw 0.85 deg, pitch 3.72 deg: the
-        // dashcam pitched down in the car).
-        let (yaw, pitch) = pose_forward_deg(25.0);
+        assert!(v.found_at_s.unwrap() < 10.0, "{v:?}");
+        // The pose's own: its velocity in its body frame over the run
+        // (the dashcam pitched down about 3.7 deg in the car). The pose
+        // is comma's solution from this IMU, not independent of it.
+        let (yaw, pitch) = pose_forward_deg(60.0);
+        println!("{f:?}; the pose's: yaw {yaw:.2}, pitch {pitch:.2}");
         assert!(
             (f.yaw_deg - yaw).abs() < 3.0 * f.sigma_yaw_deg,
             "{f:?} {yaw}"
@@ -139,9 +142,10 @@ fn a_car_s_constraints_stay_off_where_its_forward_axis_is_not_known() {
             (f.pitch_deg - pitch).abs() < 3.0 * f.sigma_pitch_deg,
             "{f:?} {pitch}"
         );
-        assert!(f.sigma_yaw_deg > 5.0 && f.sigma_pitch_deg > 1.0, "{f:?}");
-        assert_eq!(v.updates, 0);
-        assert!(v.off > 0 && v.odometer_unused);
-        assert_eq!(none, car);
+        assert!(v.updates > 50 && v.off == 0, "{v:?}");
+        let o = v.odometer.expect("the import writes the CAN speed");
+        assert!(o.updates > 50 && o.rejected == 0, "{o:?}");
+        // Its scale error within a few per cent, and known.
+        assert!(o.scale.abs() < 0.05 && o.sigma_scale < 0.01, "{o:?}");
     }
 }

@@ -45,20 +45,7 @@ fn init() -> InitialSigma {
 /// A filter with some cross-covariance: a few predicts on a moving,
 /// turning state.
 fn warmed() -> Eskf<f64> {
-    let mut f = Eskf::<f64>::new(cfg(), &init());
-    let w_ie = earth_rate_n(0.5f64, 0.866);
-    for k in 0..50 {
-        let c = *Rotation3::from_euler_angles(0.1, -0.05, 0.02 * k as f64).matrix();
-        f.predict(
-            &c,
-            &Vector3::new(0.5, -0.3, -9.8),
-            &w_ie,
-            &Vector3::new(1e-6, -2e-6, 0.0),
-            &Vector3::new(0.0, 0.0, 0.5),
-            0.1,
-        );
-    }
-    f
+    warmed_m::<N>()
 }
 
 /// The textbook block update of `f0` with rows `h` (3 x N), innovation
@@ -466,4 +453,91 @@ fn bad_measurements_are_refused_and_counted() {
         .unwrap();
     assert_eq!((rep.used, rep.rejected, g.rejected), (2, 1, 1));
     assert_eq!(g.dx[I_P], 0.0);
+}
+
+/// A few predicts on a moving, turning state, on a filter with `M`
+/// states.
+fn warmed_m<const M: usize>() -> Eskf<f64, M> {
+    let mut f = Eskf::<f64, M>::new(cfg(), &init());
+    let w_ie = earth_rate_n(0.5f64, 0.866);
+    for k in 0..50 {
+        let c = *Rotation3::from_euler_angles(0.1, -0.05, 0.02 * k as f64).matrix();
+        f.predict(
+            &c,
+            &Vector3::new(0.5, -0.3, -9.8),
+            &w_ie,
+            &Vector3::new(1e-6, -2e-6, 0.0),
+            &Vector3::new(0.0, 0.0, 0.5),
+            0.1,
+        );
+    }
+    f
+}
+
+#[test]
+fn a_host_s_unused_states_leave_the_board_s_arithmetic_bit_for_bit() {
+    // The host runs N + 3 states; a run that uses none of them must be the
+    // board's N-state filter to the bit (the tables CI checks to the digit
+    // come from the host).
+    let mut a = warmed();
+    let mut b = warmed_m::<{ N + 3 }>();
+    let z = Vector3::new(0.3, -0.2, 0.5);
+    let l = Vector3::new(0.1, 0.2, -0.3);
+    let s = Vector3::new(0.5, 0.5, 1.0);
+    a.update_position(&z, &l, &s).unwrap();
+    b.update_position(&z, &l, &s).unwrap();
+    a.update_velocity(&(z * 0.1), &(s * 0.1)).unwrap();
+    b.update_velocity(&(z * 0.1), &(s * 0.1)).unwrap();
+    for i in 0..N {
+        assert_eq!(a.dx[i].to_bits(), b.dx[i].to_bits(), "dx {i}");
+        for j in 0..N {
+            assert_eq!(a.p[(i, j)].to_bits(), b.p[(i, j)].to_bits(), "P {i} {j}");
+        }
+    }
+    for i in N..N + 3 {
+        assert_eq!((b.dx[i], b.p[(i, i)]), (0.0, 0.0));
+    }
+}
+
+#[test]
+fn a_host_state_started_as_a_function_of_the_others_is_their_combination() {
+    // x_a = r . dx + w: its variance r P r^T + sw^2, its covariance P r;
+    // a measurement of x_a - r . dx (the white part alone) with sigma sm
+    // then gives the scalar closed form for w and changes nothing else's
+    // covariance beyond what that part explains.
+    let mut f = warmed_m::<{ N + 1 }>();
+    let mut r = nalgebra::SVector::<f64, { N + 1 }>::zeros();
+    r[I_V + 1] = 0.8;
+    r[I_PHI + 2] = 12.0;
+    let sw = 0.01;
+    let p0 = f.p;
+    f.set_aux_as(0, &r, sw, 0.0).unwrap();
+    let pr = p0 * r;
+    let var = r.dot(&pr) + sw * sw;
+    // Tolerance: a few ulps of P's largest products.
+    assert!(
+        (f.p[(N, N)] - var).abs() < 1e-12 * var,
+        "{} {var}",
+        f.p[(N, N)]
+    );
+    for j in 0..N {
+        assert!((f.p[(N, j)] - pr[j]).abs() < 1e-15 + 1e-12 * pr[j].abs());
+        assert_eq!(f.p[(N, j)], f.p[(j, N)]);
+    }
+    // h = e_a - r: measures w alone. Posterior of w: sw^2 sm^2 / (sw^2 +
+    // sm^2), read as Var(x_a - r dx) = h P h^T.
+    let mut h = -r;
+    h[N] = 1.0;
+    let sm = 0.02;
+    f.update_scalar(&h, 0.005, sm * sm).unwrap();
+    let post = (h.transpose() * f.p * h)[(0, 0)];
+    let closed = sw * sw * sm * sm / (sw * sw + sm * sm);
+    assert!((post - closed).abs() < 1e-9 * closed, "{post} {closed}");
+    // And the correction is handed over once.
+    let d = f.take_aux();
+    assert!(d[0] != 0.0 && d[1..].iter().all(|x| *x == 0.0), "{d:?}");
+    assert_eq!(f.take_aux()[0], 0.0);
+    // Out of range or bad: refused.
+    assert!(f.set_aux(1, 0.1, 0.0).is_err());
+    assert!(f.set_aux(0, f64::NAN, 0.0).is_err());
 }

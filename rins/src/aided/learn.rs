@@ -26,7 +26,8 @@
 //! What it cannot tell apart: fixes whose stated sigmas are too small
 //! read the same as a rough ride (the summary says so with the factor).
 
-use core_nav::aided::{AidedNav, GnssFix};
+use crate::aided::HostNav;
+use core_nav::aided::GnssFix;
 use core_nav::eskf::{EskfConfig, Innovations};
 use core_nav::real::Real;
 use core_nav::strapdown::ImuSample;
@@ -152,7 +153,7 @@ impl From<&EskfConfig> for ProcessNoise {
 pub struct NoiseLearner<T: Real> {
     file: EskfConfig,
     factor: f64,
-    shadow: Option<(f64, Box<AidedNav<T>>)>,
+    shadow: Option<(f64, Box<HostNav<T>>)>,
     window: Vec<Innovations<f64>>,
     /// What was done.
     pub report: LearnReport,
@@ -184,7 +185,7 @@ impl<T: Real> NoiseLearner<T> {
     /// starts from the main one after a fix.
     pub fn after_step(
         &mut self,
-        an: &mut AidedNav<T>,
+        an: &mut HostNav<T>,
         t_s: f64,
         sample: &ImuSample<T>,
         table: &TableAngle<T>,
@@ -212,7 +213,7 @@ impl<T: Real> NoiseLearner<T> {
 
     /// A shadow's return `seen` at `t_s`: into the window; a re-tuning
     /// once it holds [`RETURNS`].
-    fn returned(&mut self, an: &mut AidedNav<T>, t_s: f64, seen: Innovations<T>) {
+    fn returned(&mut self, an: &mut HostNav<T>, t_s: f64, seen: Innovations<T>) {
         self.report.returns += 1;
         self.window.push(Innovations {
             n: seen.n,

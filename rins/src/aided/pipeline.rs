@@ -11,9 +11,10 @@ use super::{
     aided_config, align, gnss_corr_sigma, learn, lever_b_m, prepared_fixes, vehicle, AidedOptions,
     AidedRow, AidedRun, INITIAL_SIGMA,
 };
+use crate::aided::{HostNav, HOST_M};
 use crate::nav::TrajRow;
 use anyhow::{bail, Result};
-use core_nav::aided::{AidedNav, AidedStep, GnssFix, OriginE7};
+use core_nav::aided::{AidedStep, GnssFix, OriginE7};
 use core_nav::attitude::{euler_to_quat, quat_to_dcm, Euler};
 use core_nav::earth::{LocalEarth, Tangent};
 use core_nav::eskf::{Eskf, InitialSigma, I_P, I_PHI, I_V};
@@ -47,13 +48,13 @@ pub struct StepView<'a, T: Real> {
 /// report.
 pub trait Aid<T: Real> {
     /// After the navigator's step (`at`): its updates on `an`.
-    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>);
+    fn after_step(&mut self, an: &mut HostNav<T>, at: &StepView<'_, T>);
     /// What it did, into the run.
     fn report(self: Box<Self>, run: &mut AidedRun);
 }
 
 impl<T: Real> Aid<T> for vehicle::VehicleAid {
-    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>) {
+    fn after_step(&mut self, an: &mut HostNav<T>, at: &StepView<'_, T>) {
         vehicle::VehicleAid::after_step(self, an, at.t_s, at.table, at.aided);
     }
     fn report(self: Box<Self>, run: &mut AidedRun) {
@@ -62,7 +63,7 @@ impl<T: Real> Aid<T> for vehicle::VehicleAid {
 }
 
 impl<T: Real> Aid<T> for learn::NoiseLearner<T> {
-    fn after_step(&mut self, an: &mut AidedNav<T>, at: &StepView<'_, T>) {
+    fn after_step(&mut self, an: &mut HostNav<T>, at: &StepView<'_, T>) {
         learn::NoiseLearner::after_step(
             self,
             an,
@@ -115,7 +116,7 @@ impl Inputs<'_> {
 pub fn start<'a, T: Real>(
     rec: &'a Recording,
     opt: &AidedOptions,
-) -> Result<(AidedNav<T>, AidedRun, Inputs<'a>)> {
+) -> Result<(HostNav<T>, AidedRun, Inputs<'a>)> {
     let m = &rec.meta;
     let Some(mv) = &rec.moving else {
         bail!("not a moving-base recording ([base] moving = true in meta.toml): --gnss needs one")
@@ -154,7 +155,7 @@ pub fn start<'a, T: Real>(
     let Some(first) = input.sample::<T>(0) else {
         bail!("the recording has no IMU sample");
     };
-    let mut an = AidedNav::<T>::new(
+    let mut an = HostNav::<T>::new(
         crate::nav::strapdown_config(m, false),
         origin,
         &q_b_n0,
@@ -204,20 +205,15 @@ fn start_attitude(
 }
 
 /// The aids `opt` asks for, in the order they act after each step.
-pub fn aids<T: Real>(
-    rec: &Recording,
-    opt: &AidedOptions,
-    an: &AidedNav<T>,
-) -> Vec<Box<dyn Aid<T>>> {
+pub fn aids<T: Real>(rec: &Recording, opt: &AidedOptions, an: &HostNav<T>) -> Vec<Box<dyn Aid<T>>> {
     let mut aids: Vec<Box<dyn Aid<T>>> = vec![];
     if opt.vehicle.is_some() {
-        let mut v = vehicle::VehicleAid::default();
-        v.report.odometer_unused = rec
+        let odometer = rec
             .moving
             .as_ref()
-            .and_then(|m| m.odometer.as_ref())
-            .is_some_and(|o| !o.is_empty());
-        aids.push(Box::new(v));
+            .and_then(|m| m.odometer.clone())
+            .unwrap_or_default();
+        aids.push(Box::new(vehicle::VehicleAid::new(odometer)));
     }
     if opt.learn_noise {
         aids.push(Box::new(learn::NoiseLearner::<T>::new(*an.kf.config())));
@@ -243,7 +239,7 @@ impl FixFeed {
     /// handed.
     pub fn before_step<T: Real>(
         &mut self,
-        an: &mut AidedNav<T>,
+        an: &mut HostNav<T>,
         fixes: &[GnssRow],
         upto_s: f64,
         first: bool,
@@ -273,7 +269,7 @@ impl Default for FixFeed {
 /// The filter's own solution (the board sends the same) as an output row
 /// on the tangent plane, with the attitude's DCM (`b` to `n`).
 pub fn solution_row<T: Real>(
-    an: &AidedNav<T>,
+    an: &HostNav<T>,
     table: &TableAngle<T>,
     step: &AidedStep<T>,
     t_s: f64,
@@ -312,7 +308,7 @@ pub fn solution_row<T: Real>(
 /// down: `c_true = (I + [phi x]) c_est`), with the filter's covariance:
 /// (8-dof NEES, the attitude's own 3-dof NEES when its block factors).
 pub fn nees_against<T: Real>(
-    kf: &Eskf<T>,
+    kf: &Eskf<T, HOST_M>,
     row: &AidedRow,
     c_b_n: &Matrix3<f64>,
     tr: &TruthRow,
@@ -356,7 +352,7 @@ pub fn nees_against<T: Real>(
 }
 
 /// The navigator's counts and each aid's report into the run.
-pub fn finish<T: Real>(an: &AidedNav<T>, aids: Vec<Box<dyn Aid<T>>>, run: &mut AidedRun) {
+pub fn finish<T: Real>(an: &HostNav<T>, aids: Vec<Box<dyn Aid<T>>>, run: &mut AidedRun) {
     run.rejected = an.kf.rejected;
     run.refused += an.kf.refused + an.counts.fixes_replaced + an.counts.corrections_refused;
     run.zupts = an.counts.zupts;

@@ -632,13 +632,23 @@ fn learnt_text(l: &super::learn::LearnReport) -> String {
 
 /// The vehicle's lines of the summary.
 fn vehicle_text(v: &super::vehicle::VehicleReport) -> String {
+    let odo = match &v.odometer {
+        Some(o) => format!(
+            "; odometer: {} updates ({} gated) of {} samples, its scale error {:+.2} +- {:.2} %",
+            o.updates,
+            o.rejected,
+            o.samples,
+            100.0 * o.scale,
+            100.0 * o.sigma_scale
+        ),
+        None => String::new(),
+    };
     match (&v.forward, v.found_at_s) {
         (Some(f), Some(t)) => format!(
-            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (from {} s of straight driving, found at {t:.0} s); {} constraint updates, {} components gated, {} due but off (standing, turning hard, or the axis too loose for its speed){}\n",
-            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.samples, v.updates, v.rejected, v.off,
-            if v.odometer_unused { "; odometer.csv not used (its scale error needs a filter state rins does not have)" } else { "" }
+            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (read off the filter's velocity at {t:.1} s, then estimated); {} constraint updates, {} components gated, {} due but off (standing, turning hard){odo}\n",
+            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, v.updates, v.rejected, v.off,
         ),
-        _ => "vehicle: no constraint made: the forward axis needs 20 s of straight driving above 5 m/s with fixes, and the run had less\n".into(),
+        _ => "vehicle: no constraint made: the forward axis is read off the filter's velocity on a straight stretch above 5 m/s with fixes, and the run had none\n".into(),
     }
 }
 

@@ -1,22 +1,64 @@
-//! `navigate --gnss --vehicle car`: the land vehicle's constraints
-//! ([`core_nav::vehicle`]) made between the navigator's steps. The forward
-//! axis is found from the first straight driving with fixes
-//! ([`ForwardFinder`]); from then on, every [`NHC_EVERY_S`] while the car
-//! moves and does not turn hard, its two cross velocities are measured as
-//! zero (through outages too: that is what they are for). A recording's
-//! `odometer.csv` is not used: its tyres' scale error (about 1 %, 0.15
-//! m/s at 15 m/s) is one constant that updates repeated as if white
-//! would average away, and the filter has no state for it yet (on the
-//! comma2k19 minute, the speeds so used turned 15 s outages ending at 6.5
-//! and 0.9 m into 12.3 m each).
+//! `navigate --gnss --vehicle car`: the land vehicle's constraints and its
+//! odometer ([`core_nav::vehicle`]) made between the navigator's steps,
+//! with the car's mounting and the odometer's scale as filter states.
+//!
+//! **The mounting, from a moving start.** The first time the car drives
+//! straight (under 1 deg/s) above 5 m/s with fixes, its forward axis in
+//! `b` is read off the filter's own velocity in `b`, and two host states
+//! ([`crate::aided::HOST_M`]) carry its error: the axis's yaw `a` (about
+//! the second cross axis) and pitch `c` (about the first). Read off the
+//! filter's velocity, the axis's error is the filter's heading and level
+//! error seen through that velocity: the states start as exactly that
+//! linear function of the filter's states (`Eskf::set_aux_as`), not as
+//! an uncorrelated guess. So the constraints tie the axis and the heading
+//! together (their sum is what the fixes' track knows) and neither is
+//! told more than the data says. (A fixed axis with a 10 deg sigma either
+//! had to stay off, or told the filter a heading it did not know.)
+//!
+//! **The constraints**: every [`NHC_EVERY_S`] while the car moves and does
+//! not turn hard, its two cross velocities are measured as zero, through
+//! outages too. With the true axis `x + a e1 + c e2` (`e1`, `e2` across
+//! `x`, [`across`]) a cross velocity `e1 . v_b` reads `-a` times the
+//! forward speed more than the estimated axis's: that is the states' row.
+//!
+//! **The odometer** (`odometer.csv`): the forward speed times `1 + k`, `k`
+//! the tyres' scale error (a third host state, prior
+//! [`ODOMETER_SCALE_SIGMA`]), every [`NHC_EVERY_S`] from the same start:
+//! a scale error is one constant that updates repeated as if white would
+//! average away, so it is estimated, not left in the noise.
 
-use core_nav::aided::AidedNav;
+use crate::aided::HostNav;
 use core_nav::attitude::quat_to_dcm;
+use core_nav::eskf::AUX_MAX;
 use core_nav::real::Real;
 use core_nav::table::TableAngle;
-use core_nav::vehicle::{across, nhc_sigma_mps, Forward, ForwardFinder, NHC_EVERY_S};
+use core_nav::vehicle::{
+    across, nhc_sigma_mps, velocity_b_row, BaseVelocity, FORWARD_MAX_RATE_RADPS,
+    FORWARD_MIN_SPEED_MPS, NHC_EVERY_S, NHC_SIGMA_MPS,
+};
 use nalgebra::Vector3;
+use recording::moving::OdometerRow;
 use serde::Serialize;
+
+/// Host state of the forward axis's yaw error, rad.
+pub const AUX_YAW: usize = 0;
+/// Host state of its pitch error, rad.
+pub const AUX_PITCH: usize = 1;
+/// Host state of the odometer's scale error (1).
+pub const AUX_SCALE: usize = 2;
+/// The odometer's scale error's prior 1-sigma: a car's speed as its CAN
+/// bus reports it, from wheel speeds on tyres whose radius varies a few
+/// per cent with wear, pressure and load (speedometers read 0-10 % high by
+/// regulation; the wheel-speed signal itself within a few per cent).
+pub const ODOMETER_SCALE_SIGMA: f64 = 0.05;
+/// An odometer sample's 1-sigma when the file gives none, m/s: the CAN
+/// speed's resolution (0.01 km/h) is far below what decides it, the
+/// sample's age against the step it is used at (up to half a 50 Hz period
+/// at 2 m/s^2: 0.02 m/s) and the IMU's lever arm to the rear axle in a
+/// turn (1.5 m at 3 deg/s: 0.08 m/s), in quadrature.
+pub const ODOMETER_SIGMA_MPS: f64 = 0.1;
+/// An odometer sample is used only within this of the step, s.
+pub const ODOMETER_MAX_AGE_S: f64 = 0.1;
 
 /// What a vehicle is, as navigation uses it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -32,13 +74,13 @@ impl Vehicle {
     }
 }
 
-/// What the constraints did over a run.
+/// What the constraints and the odometer did over a run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct VehicleReport {
-    /// The forward axis found (`None`: never 20 s of straight driving
-    /// with fixes, so no constraint was made).
+    /// The forward axis at the run's end (`None`: the car never drove
+    /// straight above 5 m/s with fixes, so no constraint was made).
     pub forward: Option<ForwardReport>,
-    /// When it was found, s.
+    /// When the axis was first read off the filter, s.
     pub found_at_s: Option<f64>,
     /// Constraint updates made (two components each).
     pub updates: u32,
@@ -46,11 +88,11 @@ pub struct VehicleReport {
     pub rejected: u32,
     /// Updates due but not made: standing, creeping or turning hard.
     pub off: u32,
-    /// The recording has an `odometer.csv`, not used (module docs).
-    pub odometer_unused: bool,
+    /// The odometer, when the recording has one.
+    pub odometer: Option<OdometerReport>,
 }
 
-/// The forward axis in `b`, in degrees.
+/// The forward axis in `b`, in degrees, with the filter's 1-sigma.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ForwardReport {
     /// Yaw of the vehicle's forward axis in `b`, deg (0: along `b`'s x).
@@ -61,86 +103,299 @@ pub struct ForwardReport {
     pub sigma_yaw_deg: f64,
     /// 1-sigma of the pitch, deg.
     pub sigma_pitch_deg: f64,
-    /// Seconds of straight driving it was found from.
-    pub samples: u32,
 }
 
-impl From<Forward> for ForwardReport {
-    fn from(f: Forward) -> Self {
-        Self {
-            yaw_deg: f.yaw_rad.to_degrees(),
-            pitch_deg: f.pitch_rad.to_degrees(),
-            sigma_yaw_deg: f.sigma_yaw_rad.to_degrees(),
-            sigma_pitch_deg: f.sigma_pitch_rad.to_degrees(),
-            samples: f.samples,
-        }
-    }
+/// The odometer's use over a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct OdometerReport {
+    /// Its samples in the recording.
+    pub samples: usize,
+    /// Updates made with it.
+    pub updates: u32,
+    /// Updates the gate refused.
+    pub rejected: u32,
+    /// Its scale error at the run's end (reads `1 + scale` times the
+    /// speed), and its 1-sigma.
+    pub scale: f64,
+    /// 1-sigma of `scale`.
+    pub sigma_scale: f64,
 }
 
-/// The constraints' state through a run.
+/// The constraints' and the odometer's state through a run.
 #[derive(Clone, Debug, Default)]
 pub struct VehicleAid {
-    finder: ForwardFinder,
-    forward: Option<Forward>,
+    /// The forward axis in `b` (unit) once read off the filter.
+    x_b: Option<Vector3<f64>>,
+    /// The odometer's scale error estimate.
+    scale: f64,
+    odometer: Vec<OdometerRow>,
+    next_odo: usize,
     next_s: f64,
     /// What was done.
     pub report: VehicleReport,
 }
 
 impl VehicleAid {
+    /// Constraints, with the recording's odometer samples (time-ordered;
+    /// empty: none).
+    pub fn new(odometer: Vec<OdometerRow>) -> Self {
+        let report = VehicleReport {
+            odometer: (!odometer.is_empty()).then(|| OdometerReport {
+                samples: odometer.len(),
+                ..Default::default()
+            }),
+            ..Default::default()
+        };
+        Self {
+            odometer,
+            report,
+            ..Default::default()
+        }
+    }
+
     /// After the navigator's step at `t_s` (the table at `table`):
-    /// `aided` when a fix was used within the last two seconds (the
-    /// finder learns only then).
+    /// `aided` when a fix was used within the last two seconds (the axis
+    /// is read off only then).
     pub fn after_step<T: Real>(
         &mut self,
-        an: &mut AidedNav<T>,
+        an: &mut HostNav<T>,
         t_s: f64,
         table: &TableAngle<T>,
         aided: bool,
     ) {
+        self.take_aux(an);
         let sol = an.solution(table);
         let c_b_n = quat_to_dcm(&sol.q_b_n).map(|x| x.to_f64());
-        let v_b = c_b_n.transpose() * sol.v_n.map(|x| x.to_f64());
+        let v_n = sol.v_n.map(|x| x.to_f64());
+        let v_b = c_b_n.transpose() * v_n;
         let rate = an.w_ib_b().map(|x| x.to_f64()).norm();
-        if self.forward.is_none() && aided {
-            let sv = sol
-                .sigma_v_mps
-                .iter()
-                .map(|x| x.to_f64())
-                .fold(0.0, f64::max);
-            let se = [
-                sol.sigma_euler_rad[2].to_f64(),
-                sol.sigma_euler_rad[1].to_f64(),
-            ];
-            self.finder.offer(t_s, &v_b, rate, sv, se);
-            self.forward = self.finder.forward();
-            if let Some(f) = self.forward {
-                self.report.forward = Some(f.into());
-                self.report.found_at_s = Some(t_s);
-                self.next_s = t_s;
-            }
+        if self.x_b.is_none() && aided {
+            self.start(an, t_s, &v_b, rate, &c_b_n, &v_n, &sol.sigma_v_mps);
         }
-        let Some(f) = self.forward else { return };
+        let Some(x_b) = self.x_b else { return };
         if t_s < self.next_s {
             return;
         }
         self.next_s = t_s + NHC_EVERY_S;
-        let speed = v_b.norm();
-        let x_b = Vector3::from(f.x_b).map(T::lit);
-        let [lat, vert] = across(&x_b);
-        let mut m = vec![];
-        for (e, axis) in [(lat, f.sigma_yaw_rad), (vert, f.sigma_pitch_rad)] {
-            if let Some(s) = nhc_sigma_mps(speed, rate, axis) {
-                m.push((e, T::zero(), T::lit(s)));
-            }
-        }
+        let mut m = self.constraints(&x_b, &v_b, rate);
+        let odo = self.odometer_at(t_s, &x_b, &v_b);
+        m.extend(odo);
         if m.is_empty() {
             self.report.off += 1;
             return;
         }
+        let m: Vec<BaseVelocity<T>> = m.iter().map(lit).collect();
         if let Ok(r) = an.update_base_velocity(table, &m) {
+            self.count(&r, odo.is_some(), m.len());
+        }
+        self.take_aux(an);
+        self.report_state(an);
+    }
+
+    /// Reads the axis off the filter's velocity in `b` on a straight
+    /// stretch with fixes, and starts the host states.
+    #[allow(clippy::too_many_arguments)]
+    fn start<T: Real>(
+        &mut self,
+        an: &mut HostNav<T>,
+        t_s: f64,
+        v_b: &Vector3<f64>,
+        rate: f64,
+        c_b_n: &nalgebra::Matrix3<f64>,
+        v_n: &Vector3<f64>,
+        sigma_v: &[T; 3],
+    ) {
+        let speed = v_b.norm();
+        let sv = sigma_v.iter().map(|x| x.to_f64()).fold(0.0, f64::max);
+        if speed < FORWARD_MIN_SPEED_MPS || rate > FORWARD_MAX_RATE_RADPS || sv > 0.05 * speed {
+            return;
+        }
+        let x_b = v_b / speed;
+        let [e1, e2] = across(&x_b);
+        // 0 = e . (v_b + dv_b) - a s (module docs): a = (row . dx + w) / s,
+        // w the cross velocity's own (the road's) error.
+        let c = c_b_n.map(T::lit);
+        let vn = v_n.map(T::lit);
+        let mut ok = true;
+        for (k, e) in [(AUX_YAW, e1), (AUX_PITCH, e2)] {
+            let (row, _) =
+                velocity_b_row::<T, { crate::aided::HOST_M }>(&e.map(T::lit), T::zero(), &c, &vn);
+            let row = row / T::lit(speed);
+            ok &= an
+                .kf
+                .set_aux_as(k, &row, NHC_SIGMA_MPS / speed, 0.0)
+                .is_ok();
+        }
+        ok &= an.kf.set_aux(AUX_SCALE, ODOMETER_SCALE_SIGMA, 0.0).is_ok();
+        if ok {
+            self.x_b = Some(x_b);
+            self.report.found_at_s = Some(t_s);
+            self.next_s = t_s;
+        }
+    }
+
+    /// The two cross velocities as zero, where they hold.
+    fn constraints(
+        &self,
+        x_b: &Vector3<f64>,
+        v_b: &Vector3<f64>,
+        rate: f64,
+    ) -> Vec<BaseVelocity<f64>> {
+        let speed = x_b.dot(v_b);
+        let [e1, e2] = across(x_b);
+        let Some(sigma) = nhc_sigma_mps(speed, rate) else {
+            return vec![];
+        };
+        [(AUX_YAW, e1), (AUX_PITCH, e2)]
+            .into_iter()
+            .map(|(k, e)| {
+                let mut aux = [0.0; AUX_MAX];
+                if let Some(a) = aux.get_mut(k) {
+                    *a = -speed;
+                }
+                BaseVelocity {
+                    aux,
+                    ..BaseVelocity::plain(e, 0.0, sigma)
+                }
+            })
+            .collect()
+    }
+
+    /// The odometer's sample nearest `t_s` (within
+    /// [`ODOMETER_MAX_AGE_S`]) as a measurement of the forward speed.
+    fn odometer_at(
+        &mut self,
+        t_s: f64,
+        x_b: &Vector3<f64>,
+        v_b: &Vector3<f64>,
+    ) -> Option<BaseVelocity<f64>> {
+        let rows = &self.odometer;
+        while rows.get(self.next_odo + 1).is_some_and(|r| r.t_s <= t_s) {
+            self.next_odo += 1;
+        }
+        let near = [self.next_odo, self.next_odo + 1]
+            .iter()
+            .filter_map(|i| rows.get(*i))
+            .min_by(|a, b| (a.t_s - t_s).abs().total_cmp(&(b.t_s - t_s).abs()))?;
+        if (near.t_s - t_s).abs() > ODOMETER_MAX_AGE_S || !near.speed_mps.is_finite() {
+            return None;
+        }
+        let gain = 1.0 + self.scale;
+        let [e1, e2] = across(x_b);
+        let mut aux = [0.0; AUX_MAX];
+        for (k, v) in [
+            (AUX_YAW, gain * e1.dot(v_b)),
+            (AUX_PITCH, gain * e2.dot(v_b)),
+            (AUX_SCALE, x_b.dot(v_b)),
+        ] {
+            if let Some(a) = aux.get_mut(k) {
+                *a = v;
+            }
+        }
+        let sigma = near
+            .sigma_mps
+            .filter(|s| *s > 0.0)
+            .unwrap_or(ODOMETER_SIGMA_MPS);
+        Some(BaseVelocity {
+            gain,
+            aux,
+            ..BaseVelocity::plain(*x_b, near.speed_mps, sigma)
+        })
+    }
+
+    /// The filter's corrections of the host states, into the axis and the
+    /// scale.
+    fn take_aux<T: Real>(&mut self, an: &mut HostNav<T>) {
+        let d = an.kf.take_aux().map(|x| x.to_f64());
+        let Some(x_b) = self.x_b else { return };
+        let [e1, e2] = across(&x_b);
+        let [a, c, k] = [d[AUX_YAW], d[AUX_PITCH], d[AUX_SCALE]];
+        let x = x_b + e1 * a + e2 * c;
+        if x.iter().all(|v| v.is_finite()) && x.norm() > 0.5 && k.is_finite() {
+            self.x_b = Some(x.normalize());
+            self.scale += k;
+        }
+    }
+
+    fn count<T: Real>(&mut self, r: &core_nav::eskf::UpdateReport<T>, odo: bool, n: usize) {
+        let nhc = n - usize::from(odo);
+        if nhc > 0 {
             self.report.updates += 1;
-            self.report.rejected += u32::from(r.rejected);
+        }
+        self.report.rejected += u32::from(r.rejected);
+        if let (true, Some(o)) = (odo, self.report.odometer.as_mut()) {
+            o.updates += 1;
+            // The odometer is the last measurement: its bit in the mask.
+            if r.rejected_mask & (1 << nhc) != 0 {
+                o.rejected += 1;
+            }
+        }
+    }
+
+    fn report_state<T: Real>(&mut self, an: &HostNav<T>) {
+        let Some(x) = self.x_b else { return };
+        let sig = |k: usize| an.kf.sigma(core_nav::eskf::N + k).to_f64();
+        self.report.forward = Some(ForwardReport {
+            yaw_deg: x.y.atan2(x.x).to_degrees(),
+            pitch_deg: (-x.z).clamp(-1.0, 1.0).asin().to_degrees(),
+            sigma_yaw_deg: sig(AUX_YAW).to_degrees(),
+            sigma_pitch_deg: sig(AUX_PITCH).to_degrees(),
+        });
+        if let Some(o) = self.report.odometer.as_mut() {
+            o.scale = self.scale;
+            o.sigma_scale = sig(AUX_SCALE);
+        }
+    }
+}
+
+fn lit<T: Real>(m: &BaseVelocity<f64>) -> BaseVelocity<T> {
+    BaseVelocity {
+        e_b: m.e_b.map(T::lit),
+        value_mps: T::lit(m.value_mps),
+        sigma_mps: T::lit(m.sigma_mps),
+        gain: T::lit(m.gain),
+        aux: m.aux.map(T::lit),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aided::HOST_M;
+    use core_nav::eskf::N;
+    use nalgebra::Matrix3;
+
+    /// The base moves exactly along the true axis `x + a e1 + c e2` (no
+    /// filter error: `b` is `n`), the odometer reads `1 + k` times its
+    /// speed: each measurement's innovation is its row times the host
+    /// states' true errors, to second order in the angles.
+    #[test]
+    fn the_rows_carry_the_axis_s_and_the_scale_s_errors_with_their_signs() {
+        let x = Vector3::new(0.9, -0.3, 0.1).normalize();
+        let [e1, e2] = across(&x);
+        let (a, c, k, s) = (2e-3, -1e-3, 0.01, 15.0);
+        let v_b = (x + e1 * a + e2 * c).normalize() * s;
+        let mut aid = VehicleAid::new(vec![OdometerRow {
+            t_s: 1.0,
+            speed_mps: (1.0 + k) * s,
+            sigma_mps: None,
+        }]);
+        let mut m = aid.constraints(&x, &v_b, 0.0);
+        m.extend(aid.odometer_at(1.0, &x, &v_b));
+        assert_eq!(m.len(), 3);
+        let mut dx = nalgebra::SVector::<f64, HOST_M>::zeros();
+        for (i, e) in [(AUX_YAW, a), (AUX_PITCH, c), (AUX_SCALE, k)] {
+            dx[N + i] = e;
+        }
+        for bv in &m {
+            let (h, z) = bv.row::<HOST_M>(&Matrix3::identity(), &v_b);
+            // Second order: s a^2 ~ 6e-5 m/s, and k a s ~ 3e-4.
+            assert!(
+                (z - h.dot(&dx)).abs() < 5e-4,
+                "{bv:?}: {z} vs {}",
+                h.dot(&dx)
+            );
+            assert!(z.abs() > 1e-2, "{z}: the error is seen");
         }
     }
 }

@@ -112,8 +112,9 @@ pub struct Args {
     #[arg(long, requires = "gnss")]
     pub estimate_lever_arm: bool,
     /// The base is a land vehicle (`car`): it does not slide sideways or
-    /// leave the road. Its forward axis in b is found from the first
-    /// straight driving with fixes and reported with its sigma.
+    /// leave the road, and the recording's odometer.csv (if any) is its
+    /// speed. Its forward axis in b and the odometer's scale are
+    /// estimated from the first straight driving with fixes on.
     #[arg(long, value_name = "KIND", value_parser = ["car"], requires = "gnss")]
     pub vehicle: Option<String>,
 }
