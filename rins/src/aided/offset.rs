@@ -113,3 +113,101 @@ pub fn least(grid: &[(f64, f64, f64)], step: f64) -> Option<(f64, f64)> {
     let shift = ((lo.1 - hi.1) / (4.0 * c * step)).clamp(-step, step);
     Some((x0 + shift, (per.max(1.0) / c).sqrt()))
 }
+
+/// The share of the filter's measurement components the gate may refuse
+/// before a run says its clocks may disagree: a consistent filter's
+/// gate at [`super::GATE_SIGMA`] refuses far fewer (the held-back real
+/// drive without its logger's 0.25 s: hundreds of rejections and 73
+/// re-initialisations).
+pub const HINT_REJECTED_SHARE: f64 = 0.05;
+
+/// What in a finished run points at a clock offset between the IMU and
+/// the receiver: re-initialisations with fixes arriving (not the ones an
+/// outage's error caused), or the gate refusing more than
+/// [`HINT_REJECTED_SHARE`] of the components (of every kind of update:
+/// the fixes' are most of them). `None`: neither.
+pub fn symptom(s: &super::AidedSummary, run: &super::AidedRun) -> Option<String> {
+    let lost = s
+        .reinit_at
+        .iter()
+        .filter(|r| r.after_outage.is_none())
+        .count();
+    let used: f64 = run.nis.iter().map(|x| f64::from(x.2)).sum();
+    let refused = f64::from(s.rejected);
+    let share = refused / (refused + used).max(1.0);
+    match (lost, share > HINT_REJECTED_SHARE) {
+        (0, false) => None,
+        (n, true) => Some(format!(
+            "the gate refused {:.0} % of the components ({n} re-initialisations with fixes arriving)",
+            100.0 * share
+        )),
+        (n, false) => Some(format!("{n} re-initialisations with fixes arriving")),
+    }
+}
+
+/// A run's symptom and the offset the fixes' NIS then finds.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OffsetHint {
+    /// What pointed at the clocks ([`symptom`]).
+    pub symptom: String,
+    /// The offset found around the run's own (`None`: not found, see
+    /// `error`).
+    pub estimate: Option<OffsetEstimate>,
+    /// Why it was not found.
+    pub error: Option<String>,
+    /// The run's own offset, s.
+    pub run_offset_s: f64,
+    /// The offset found differs from the run's by more than twice its
+    /// sigma and a grid step: re-run with it.
+    pub recommended: bool,
+}
+
+impl OffsetHint {
+    /// The summary's line.
+    pub fn text(&self) -> String {
+        match (&self.estimate, self.recommended) {
+            (Some(e), true) => format!(
+                "time offset: {}: a clock offset between the IMU and the receiver does that; the fixes' NIS puts the IMU {:+.3} +- {:.3} s late (this run took {:+.3} s): navigate with --time-offset-s {:.3} or --estimate-time-offset\n",
+                self.symptom, e.offset_s, e.sigma_s, self.run_offset_s, e.offset_s
+            ),
+            (Some(e), false) => format!(
+                "time offset: {}; the fixes' NIS puts the IMU {:+.3} +- {:.3} s late, where this run took it: not the clocks\n",
+                self.symptom, e.offset_s, e.sigma_s
+            ),
+            (None, _) => format!(
+                "time offset: {}; the offset could not be estimated: {}\n",
+                self.symptom,
+                self.error.as_deref().unwrap_or("unknown")
+            ),
+        }
+    }
+}
+
+/// When `run` (navigated with `opt`) shows a [`symptom`], the offset
+/// estimated around its own over +-0.5 s in 0.02 s steps; `None` without
+/// a symptom.
+pub fn hint(
+    rec: &Recording,
+    opt: &AidedOptions,
+    s: &super::AidedSummary,
+    run: &super::AidedRun,
+    progress: &mut dyn FnMut(f64),
+) -> Option<OffsetHint> {
+    let symptom = symptom(s, run)?;
+    let step = 0.02;
+    let (estimate, error) = match estimate(rec, opt, 0.5, step, progress) {
+        Ok(e) => (Some(e), None),
+        Err(e) => (None, Some(format!("{e:#}"))),
+    };
+    let recommended = estimate.as_ref().is_some_and(|e| {
+        let d = (e.offset_s - opt.time_offset_s).abs();
+        d > 2.0 * e.sigma_s && d > step
+    });
+    Some(OffsetHint {
+        symptom,
+        estimate,
+        error,
+        run_offset_s: opt.time_offset_s,
+        recommended,
+    })
+}

@@ -462,6 +462,20 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     )?;
     let summary = rins::aided::summary(rec, &run);
     print!("{}", summary.text());
+    let hint = match offset {
+        Some(_) => None,
+        None => {
+            let pb = progress_bar("time offset");
+            let h = rins::aided::offset::hint(rec, &opt, &summary, &run, &mut |f| {
+                pb.set_position((f * 1000.0) as u64)
+            });
+            pb.finish_and_clear();
+            h
+        }
+    };
+    if let Some(h) = &hint {
+        print!("{}", h.text());
+    }
     println!("wrote {}", a.out.join("trajectory.csv").display());
     let plots = rins::aided::plots(rec, &run, &a.out)?;
     println!(
@@ -473,6 +487,9 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         let mut j = summary.json();
         if let (Some(e), Some(m)) = (&offset, j.as_object_mut()) {
             m.insert("time_offset".into(), serde_json::to_value(e)?);
+        }
+        if let Some(m) = j.as_object_mut() {
+            m.insert("time_offset_hint".into(), serde_json::to_value(&hint)?);
         }
         if let (Some(e), Some(m)) = (&lever, j.as_object_mut()) {
             m.insert("lever_arm".into(), serde_json::to_value(e)?);
