@@ -254,3 +254,60 @@ impl Nis<'_> {
         Ok(out)
     }
 }
+
+/// The arm the fixes' NIS finds for a run that showed a symptom its clocks
+/// were cleared of ([`super::offset::hint`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LeverHint {
+    /// The estimate (`None`: not found, see `error`).
+    pub estimate: Option<LeverEstimate>,
+    /// Why it was not found.
+    pub error: Option<String>,
+    /// A resolved component lies more than 3 of its sigmas and
+    /// [`FINE_M`] from the given arm: re-run with the estimate.
+    pub recommended: bool,
+}
+
+impl LeverHint {
+    /// Estimates the arm of `rec` navigated with `opt`.
+    pub fn find(rec: &Recording, opt: &AidedOptions, progress: &mut dyn FnMut(f64)) -> Self {
+        match estimate(rec, opt, progress) {
+            Ok(e) => {
+                let off = |i: usize| {
+                    let d = (e.b_m[i] - e.given_b_m[i]).abs();
+                    e.sigma_m[i].is_some_and(|s| d > 3.0 * s && d > FINE_M)
+                };
+                let recommended = (0..3).any(off);
+                Self {
+                    estimate: Some(e),
+                    error: None,
+                    recommended,
+                }
+            }
+            Err(e) => Self {
+                estimate: None,
+                error: Some(format!("{e:#}")),
+                recommended: false,
+            },
+        }
+    }
+
+    /// The summary's line.
+    pub fn text(&self) -> String {
+        let arm = |v: [f64; 3]| format!("{:+.3}, {:+.3}, {:+.3} m", v[0], v[1], v[2]);
+        match (&self.estimate, self.recommended) {
+            (Some(e), true) => format!(
+                "antenna lever arm: the fixes' NIS puts it at {} in b, not the given {} (NIS per dof {:.2} -> {:.2}): navigate with --estimate-lever-arm\n",
+                arm(e.b_m), arm(e.given_b_m), e.nis_per_dof[0], e.nis_per_dof[1]
+            ),
+            (Some(e), false) => format!(
+                "antenna lever arm: the fixes' NIS puts it where given ({}): not the arm\n",
+                arm(e.given_b_m)
+            ),
+            (None, _) => format!(
+                "antenna lever arm: not estimated: {}\n",
+                self.error.as_deref().unwrap_or("unknown")
+            ),
+        }
+    }
+}

@@ -322,6 +322,44 @@ pub fn run(a: &Args) -> Result<()> {
 
 /// The lever-arm estimate, one line: each component with its 1-sigma
 /// (or unresolved), and the fixes' NIS before and after.
+/// What a run's symptom points at, one hypothesis at a time: the clocks
+/// (unless `--estimate-time-offset` ran), then, when they are cleared,
+/// the antenna's arm (unless `--estimate-lever-arm` ran); each printed.
+fn symptom_hints(
+    rec: &recording::Recording,
+    opt: &rins::aided::AidedOptions,
+    summary: &rins::aided::AidedSummary,
+    run: &rins::aided::AidedRun,
+    offset_done: bool,
+    lever_done: bool,
+) -> (
+    Option<rins::aided::offset::OffsetHint>,
+    Option<rins::aided::lever::LeverHint>,
+) {
+    if offset_done {
+        return (None, None);
+    }
+    let pb = progress_bar("time offset");
+    let hint = rins::aided::offset::hint(rec, opt, summary, run, &mut |f| {
+        pb.set_position((f * 1000.0) as u64)
+    });
+    pb.finish_and_clear();
+    let Some(h) = hint else {
+        return (None, None);
+    };
+    print!("{}", h.text());
+    if h.recommended || lever_done {
+        return (Some(h), None);
+    }
+    let pb = progress_bar("lever arm");
+    let l = rins::aided::lever::LeverHint::find(rec, opt, &mut |f| {
+        pb.set_position((f * 1000.0) as u64)
+    });
+    pb.finish_and_clear();
+    print!("{}", l.text());
+    (Some(h), Some(l))
+}
+
 fn lever_line(e: &rins::aided::lever::LeverEstimate) -> String {
     let parts: Vec<String> = (0..3)
         .map(|i| match e.sigma_m[i] {
@@ -462,20 +500,8 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     )?;
     let summary = rins::aided::summary(rec, &run);
     print!("{}", summary.text());
-    let hint = match offset {
-        Some(_) => None,
-        None => {
-            let pb = progress_bar("time offset");
-            let h = rins::aided::offset::hint(rec, &opt, &summary, &run, &mut |f| {
-                pb.set_position((f * 1000.0) as u64)
-            });
-            pb.finish_and_clear();
-            h
-        }
-    };
-    if let Some(h) = &hint {
-        print!("{}", h.text());
-    }
+    let (hint, lever_hint) =
+        symptom_hints(rec, &opt, &summary, &run, offset.is_some(), lever.is_some());
     println!("wrote {}", a.out.join("trajectory.csv").display());
     let plots = rins::aided::plots(rec, &run, &a.out)?;
     println!(
@@ -490,6 +516,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         }
         if let Some(m) = j.as_object_mut() {
             m.insert("time_offset_hint".into(), serde_json::to_value(&hint)?);
+            m.insert("lever_arm_hint".into(), serde_json::to_value(&lever_hint)?);
         }
         if let (Some(e), Some(m)) = (&lever, j.as_object_mut()) {
             m.insert("lever_arm".into(), serde_json::to_value(e)?);
