@@ -398,7 +398,10 @@ fn the_walk_with_its_fixes_stamped_0_25_s_early_points_at_its_clocks_and_finds_0
         let l = rins::aided::lever::LeverHint::find(&rec, &opt, &mut |_| {});
         print!("{}", l.text());
         let e = l.estimate.as_ref().unwrap();
-        assert!(l.recommended && e.nis_per_dof[1] < e.nis_per_dof[0], "{l:?}");
+        assert!(
+            l.recommended && e.nis_per_dof[1] < e.nis_per_dof[0],
+            "{l:?}"
+        );
     }
     let own = match own_hint.and_then(|h| h.estimate) {
         Some(e) => e,
