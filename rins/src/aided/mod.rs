@@ -216,6 +216,8 @@ pub struct AidedRun {
     pub nees_diag: Vec<(f64, f64)>,
     /// The alignment, when the start attitude was not given.
     pub aligned: Option<align::Alignment>,
+    /// Where the start attitude and its sigmas came from.
+    pub start: pipeline::StartAttitude,
     /// The outages cut in: (start s, length s).
     pub outages_cut: Vec<(f64, f64)>,
     /// Each re-initialisation: (time s, the horizontal jump it made, m:

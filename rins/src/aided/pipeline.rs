@@ -134,7 +134,7 @@ pub fn start<'a, T: Real>(
         fixes: prepared_fixes(fixes, opt),
         truth: mv.truth.as_deref().unwrap_or(&[]),
     };
-    let (euler, initial, aligned) = start_attitude(rec, &input.fixes)?;
+    let (euler, initial, start, aligned) = start_attitude(rec, &input.fixes)?;
     let lever_b = lever_b_m(rec, opt);
     let origin = OriginE7::from_deg(m.latitude_deg, mv.longitude_deg, m.height_m);
     let moving = align::moving_start(&input.fixes, origin.point());
@@ -169,6 +169,7 @@ pub fn start<'a, T: Real>(
     }
     let run = AidedRun {
         aligned,
+        start,
         moving_start: moving,
         time_offset_s: opt.time_offset_s,
         process_noise: an.kf.config().into(),
@@ -178,16 +179,35 @@ pub fn start<'a, T: Real>(
     Ok((an, run, input))
 }
 
-/// The start attitude: meta.toml's, or aligned on the fixes when its
-/// heading is unknown; the filter's initial sigmas with it.
+/// The start attitude: meta.toml's (with its stated 1-sigmas where it
+/// states them, else [`INITIAL_SIGMA`]'s), or aligned on the fixes when
+/// its heading is unknown; the filter's initial sigmas with it.
 fn start_attitude(
     rec: &Recording,
     fixes: &[GnssRow],
-) -> Result<(Euler<f64>, InitialSigma, Option<align::Alignment>)> {
+) -> Result<(
+    Euler<f64>,
+    InitialSigma,
+    StartAttitude,
+    Option<align::Alignment>,
+)> {
     let m = &rec.meta;
     if !rec.moving.as_ref().is_some_and(|mv| mv.heading_unknown) {
         let e = Euler::<f64>::from_deg(m.roll_deg, m.pitch_deg, m.heading_deg);
-        return Ok((e, INITIAL_SIGMA, None));
+        let stated = |s: Option<f64>, assumed: f64| {
+            s.map_or(assumed, |d| d.to_radians().max(STATED_SIGMA_FLOOR_RAD))
+        };
+        let initial = InitialSigma {
+            level_rad: stated(m.level_sigma_deg, INITIAL_SIGMA.level_rad),
+            heading_rad: stated(m.heading_sigma_deg, INITIAL_SIGMA.heading_rad),
+            ..INITIAL_SIGMA
+        };
+        let from = StartAttitude {
+            level_stated: m.level_sigma_deg.is_some(),
+            heading_stated: m.heading_sigma_deg.is_some(),
+            ..StartAttitude::of("meta.toml", &initial)
+        };
+        return Ok((e, initial, from, None));
     }
     let a = align::align(rec, fixes, m.site().gravity_mps2)?;
     let [roll, pitch, heading] = a.euler_rad;
@@ -201,7 +221,55 @@ fn start_attitude(
         pitch,
         heading,
     };
-    Ok((e, initial, Some(a)))
+    Ok((e, initial, StartAttitude::of("aligned", &initial), Some(a)))
+}
+
+/// The least start sigma a stated one is taken as, rad (a stated 0 would
+/// make the attitude's covariance singular).
+const STATED_SIGMA_FLOOR_RAD: f64 = 1e-6;
+
+/// Where the start attitude and its 1-sigmas came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct StartAttitude {
+    /// `"meta.toml"` or `"aligned"` (on the still start and the fixes).
+    pub from: &'static str,
+    /// Roll's and pitch's 1-sigma the filter started with, deg.
+    pub level_sigma_deg: f64,
+    /// Heading's, deg.
+    pub heading_sigma_deg: f64,
+    /// meta.toml states the level's sigma (else assumed, or aligned's).
+    pub level_stated: bool,
+    /// meta.toml states the heading's sigma.
+    pub heading_stated: bool,
+}
+
+impl StartAttitude {
+    fn of(from: &'static str, s: &InitialSigma) -> Self {
+        Self {
+            from,
+            level_sigma_deg: s.level_rad.to_degrees(),
+            heading_sigma_deg: s.heading_rad.to_degrees(),
+            level_stated: false,
+            heading_stated: false,
+        }
+    }
+
+    /// For a person: one line.
+    pub fn text(&self) -> String {
+        let how = |stated: bool| match (self.from, stated) {
+            ("meta.toml", true) => " (stated)",
+            ("meta.toml", false) => " (assumed: meta.toml states none)",
+            _ => "",
+        };
+        format!(
+            "start attitude: {}'s, 1-sigma level {} deg{}, heading {} deg{}\n",
+            self.from,
+            recording::figures::sig(self.level_sigma_deg, 2),
+            how(self.level_stated),
+            recording::figures::sig(self.heading_sigma_deg, 2),
+            how(self.heading_stated),
+        )
+    }
 }
 
 /// The aids `opt` asks for, in the order they act after each step.

@@ -72,6 +72,8 @@ pub struct AidedSummary {
     pub zupt_spans: Vec<(f64, f64, u32)>,
     /// What the vehicle's constraints did (`--vehicle`), `None` without.
     pub vehicle: Option<super::vehicle::VehicleReport>,
+    /// Where the start attitude and its 1-sigmas came from.
+    pub start: super::pipeline::StartAttitude,
     /// The run started moving: the velocity the fixes gave it.
     pub moving_start: Option<super::align::MovingStart>,
     /// The ride's noise learnt from the fixes (`None`: not asked,
@@ -228,6 +230,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         learnt_noise: run.learnt.clone(),
         process_noise: run.process_noise,
         moving_start: run.moving_start,
+        start: run.start,
         ..AidedSummary::default()
     };
     s.outages = run
@@ -477,7 +480,8 @@ impl AidedSummary {
             ),
             _ => String::new(),
         };
-        let mut o = self.moving_start.map_or(String::new(), |m| {
+        let mut o = self.start.text();
+        o += &self.moving_start.map_or(String::new(), |m| {
             let [n, e, _] = m.v_n_mps;
             format!(
                 "moving at the start ({:.1} m/s over the ground, +- {:.2} m/s, from the first fixes): no still start, so no zero-velocity updates\n",
