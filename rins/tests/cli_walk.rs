@@ -202,6 +202,8 @@ const NAVIGATE: Walk = Walk {
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], NAV),
         changes("--estimate-lever-arm", &["{fix}/walkrec", "--gnss", "--estimate-lever-arm", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
         refused("--estimate-lever-arm", &["{rec}", "--estimate-lever-arm", "--out", "{out}/n"], &["--gnss"]),
+        // Both: estimated together (rins::aided::joint), not one after the other.
+        changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--estimate-lever-arm", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-lever-arm", "--out", "{out}/n"], NAV),
         changes("--learn-noise", &["{fix}/walkrec", "--gnss", "--learn-noise", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
         refused("--learn-noise", &["{rec}", "--learn-noise", "--out", "{out}/n"], &["--gnss"]),
         changes("--vehicle", &["{drive}", "--gnss", "--vehicle", "car", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),

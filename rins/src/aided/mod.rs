@@ -22,6 +22,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod joint;
 pub mod learn;
 pub mod lever;
 pub mod offset;

@@ -261,9 +261,12 @@ impl StartAttitude {
             ("meta.toml", false) => " (assumed: meta.toml states none)",
             _ => "",
         };
+        let from = match self.from {
+            "meta.toml" => "meta.toml's",
+            _ => "aligned on the still start and the fixes",
+        };
         format!(
-            "start attitude: {}'s, 1-sigma level {} deg{}, heading {} deg{}\n",
-            self.from,
+            "start attitude: {from}, 1-sigma level {} deg{}, heading {} deg{}\n",
             recording::figures::sig(self.level_sigma_deg, 2),
             how(self.level_stated),
             recording::figures::sig(self.heading_sigma_deg, 2),

@@ -103,7 +103,9 @@ pub struct Args {
     )]
     pub time_offset_s: f64,
     /// Estimate the IMU-to-GNSS time offset (a pre-pass over +-0.5 s,
-    /// around --time-offset-s) and navigate with it.
+    /// around --time-offset-s) and navigate with it. With
+    /// --estimate-lever-arm: the two estimated together, each sigma
+    /// including what the other absorbs
     #[arg(long, requires = "gnss")]
     pub estimate_time_offset: bool,
     /// Estimate the antenna's lever arm in b (a pre-pass along each axis,
@@ -490,6 +492,20 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             Some(e)
         }
     };
+    let joint = match (&offset, &lever) {
+        (Some(o), Some(l)) => {
+            let pb = progress_bar("offset and arm together");
+            let e = rins::aided::joint::estimate(rec, &opt, o, l, &mut |f| {
+                pb.set_position((f * 1000.0) as u64)
+            })?;
+            pb.finish_and_clear();
+            print!("{}", e.text());
+            opt.time_offset_s = e.offset_s;
+            opt.lever_b_m = Some(e.lever_b_m);
+            Some(e)
+        }
+        _ => None,
+    };
     let pb = progress_bar("navigate --gnss");
     let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
     pb.finish_and_clear();
@@ -520,6 +536,9 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         }
         if let (Some(e), Some(m)) = (&lever, j.as_object_mut()) {
             m.insert("lever_arm".into(), serde_json::to_value(e)?);
+        }
+        if let (Some(e), Some(m)) = (&joint, j.as_object_mut()) {
+            m.insert("offset_and_lever_arm".into(), serde_json::to_value(e)?);
         }
         write_file(p, &serde_json::to_string_pretty(&j)?)?;
     }
