@@ -206,8 +206,8 @@ fn report(
 }
 
 /// The Hessian and gradient of the total NIS at `x` (value `f0`) by
-/// central differences of steps `h`.
-fn curvature(
+/// central differences of steps `h` (`nis` at a parameter vector).
+pub(crate) fn curvature(
     x: &[f64],
     h: &[f64],
     f0: f64,

@@ -221,29 +221,18 @@ impl Nis<'_> {
     /// unresolved axis, and for all when the resolved block is not
     /// positive definite (the NIS is not a bowl there).
     fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
-        let h = 2.0 * FINE_M;
         let axes: Vec<usize> = (0..3).filter(|i| resolved[*i]).collect();
         let (f0, per) = self.at(arm)?;
-        let mut shifted = |d: &[(usize, f64)]| -> Result<f64> {
+        let x: Vec<f64> = axes.iter().map(|i| arm[*i]).collect();
+        let h = vec![2.0 * FINE_M; axes.len()];
+        let mut nis = |y: &[f64]| {
             let mut l = *arm;
-            for (i, s) in d {
-                l[*i] += s * h;
+            for (i, v) in axes.iter().zip(y) {
+                l[*i] = *v;
             }
-            Ok(self.at(&l)?.0)
+            self.at(&l)
         };
-        let n = axes.len();
-        let mut hess = nalgebra::DMatrix::<f64>::zeros(n, n);
-        for (a, &i) in axes.iter().enumerate() {
-            hess[(a, a)] = (shifted(&[(i, 1.0)])? + shifted(&[(i, -1.0)])? - 2.0 * f0) / (h * h);
-            for (b, &j) in axes.iter().enumerate().skip(a + 1) {
-                let pp = shifted(&[(i, 1.0), (j, 1.0)])?;
-                let pm = shifted(&[(i, 1.0), (j, -1.0)])?;
-                let mp = shifted(&[(i, -1.0), (j, 1.0)])?;
-                let mm = shifted(&[(i, -1.0), (j, -1.0)])?;
-                hess[(a, b)] = (pp - pm - mp + mm) / (4.0 * h * h);
-                hess[(b, a)] = hess[(a, b)];
-            }
-        }
+        let (hess, _) = super::joint::curvature(&x, &h, f0, &mut nis)?;
         let mut out = [None; 3];
         if let Some(ch) = hess.cholesky() {
             let cov = ch.inverse() * (2.0 * per.max(1.0));
