@@ -34,7 +34,7 @@ fn the_car_minute_on_a_moved_imu_clock_with_the_offset_told_is_the_same_drive() 
     // agree to a micrometre.
     let input = CommaInput {
         dir: rins_tests::data::bundled("comma2k19_rav4_highway_60s"),
-        fix_sigma_h_m: 2.0,
+        fix_sigma_h_m: Some(2.0),
         sensor: hal_sim::sensor::resolve("icm42605").unwrap(),
     };
     let (rec, _) = import(&input).unwrap();

@@ -40,8 +40,8 @@ pub enum From {
     /// A comma2k19 segment (NumPy arrays): the IMU, the u-blox fixes at
     /// their epochs, CAN speed as odometer.csv, the pose as a reference.
     #[command(
-        override_usage = "rins import comma2k19 --dir <DIR> --fix-sigma-m <M> \\
-         --sensor <SENSOR> --out <OUT> [OPTIONS]"
+        override_usage = "rins import comma2k19 --dir <DIR> --sensor <SENSOR> \\
+         --out <OUT> [OPTIONS]"
     )]
     Comma2k19(CommaArgs),
 }
@@ -52,10 +52,11 @@ pub struct CommaArgs {
     /// The segment directory (holding processed_log/ and global_pose/).
     #[arg(long)]
     pub dir: PathBuf,
-    /// The fixes' horizontal 1-sigma, m (vertical twice it): the log has
-    /// none of the receiver's.
+    /// The fixes' horizontal 1-sigma, m (vertical twice it). Default: the
+    /// fixes' rms against the pose once their clock is lined up (the log
+    /// has none of the receiver's)
     #[arg(long)]
-    pub fix_sigma_m: f64,
+    pub fix_sigma_m: Option<f64>,
     /// The sensor, where to write, the counts.
     #[command(flatten)]
     pub to: Written,
@@ -219,8 +220,13 @@ fn comma(a: &CommaArgs) -> Result<()> {
         .as_ref()
         .and_then(|m| m.odometer.as_ref())
         .map_or(0, Vec::len);
+    let check = rep
+        .fixes_against_reference
+        .as_ref()
+        .map(|c| format!("\n{}", c.text("global_pose")))
+        .unwrap_or_default();
     let text = format!(
-        "{}, the fixes at their epochs, {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU)",
+        "{}, the fixes at their epochs, {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU or the receiver){check}",
         a.to.counts(&rep)
     );
     a.to.save(&rec, &text, &rep)

@@ -9,8 +9,9 @@
 //!   device, turned by the sensor file's mounting into `b`.
 //! - Fixes: `GNSS/live_gnss_ublox` rows `[lat deg, lon deg, speed m/s, UTC
 //!   ms, height m, bearing deg]`, position-only (no vertical velocity is
-//!   given), with the stated 1-sigma (the receiver's are not logged), at
-//!   their epoch: UTC to GPS time (18 leap seconds, 2017 on) and GPS time
+//!   given), at their epoch, each with the 1-sigma the user states or,
+//!   by default, the one measured against the pose ([`against_reference`]:
+//!   the receiver logs none): UTC to GPS time (18 leap seconds, 2017 on) and GPS time
 //!   to the boot clock through `global_pose`'s pairs of `frame_gps_times`
 //!   and `frame_times` (their median difference); the arrival stamps lag
 //!   the epochs by about 0.2 s.
@@ -25,6 +26,7 @@
 //! Every time is the device's boot clock, shifted so the first IMU sample
 //! is `t_s = 0`.
 
+use super::fixcheck::{against_reference, FixesAgainstReference};
 use super::npy;
 use anyhow::{anyhow, bail, Result};
 use core_nav::attitude::{dcm_to_euler, quat_to_dcm};
@@ -39,8 +41,9 @@ use std::path::{Path, PathBuf};
 pub struct CommaInput {
     /// The segment directory (holding `processed_log` and `global_pose`).
     pub dir: PathBuf,
-    /// The fixes' horizontal 1-sigma, m (vertical: twice it).
-    pub fix_sigma_h_m: f64,
+    /// The fixes' horizontal 1-sigma, m (vertical: twice it); `None`:
+    /// measured against the pose ([`against_reference`]).
+    pub fix_sigma_h_m: Option<f64>,
     /// The sensor (model name, mounting into `b`, antenna).
     pub sensor: hal_sim::imu::ImuSpec,
 }
@@ -104,7 +107,7 @@ fn gps_offset(dir: &Path) -> Result<(f64, f64)> {
 /// count) or in another GPS week than the pose's, no fix or reference row
 /// inside the IMU's span, a non-positive sigma.
 pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
-    if input.fix_sigma_h_m.is_nan() || input.fix_sigma_h_m <= 0.0 {
+    if input.fix_sigma_h_m.is_some_and(|s| s.is_nan() || s <= 0.0) {
         bail!("the fixes' sigma must be positive");
     }
     let dir = &input.dir;
@@ -142,6 +145,7 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
         ..super::ImportReport::default()
     };
     let (gps_minus_boot, week) = gps_offset(dir)?;
+    // The fixes' sigmas are set below, once the pose is read.
     rep.t0_gpst = t0 + gps_minus_boot;
     let gnss = fixes(input, t0, t_end, gps_minus_boot, week, &mut rep)?;
     let truth = reference(dir, t0, t_end)?;
@@ -160,6 +164,26 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
             }
         })
         .collect();
+    let check = against_reference(&gnss, &truth, &tangent)
+        .ok_or_else(|| anyhow!("global_pose: no fix lies inside it at any clock shift"))?;
+    let [h, v] = match input.fix_sigma_h_m {
+        Some(s) => [s, 2.0 * s],
+        None => check.sigma_m(),
+    };
+    let gnss = gnss
+        .into_iter()
+        .map(|f| GnssRow {
+            sigma_h_m: h,
+            sigma_v_m: v,
+            ..f
+        })
+        .collect();
+    rep.fixes_against_reference = Some(FixesAgainstReference {
+        sigma_h_m: h,
+        sigma_v_m: v,
+        sigma_measured: input.fix_sigma_h_m.is_none(),
+        ..check
+    });
     let odometer = odometer(dir, t0, t_end)?;
     let rate = rep.imu_rate_found_hz.round();
     let meta = Meta {
@@ -235,8 +259,8 @@ fn fixes(
             lon_deg: lon,
             height_m: h,
             v_n_mps: [f64::NAN; 3],
-            sigma_h_m: input.fix_sigma_h_m,
-            sigma_v_m: 2.0 * input.fix_sigma_h_m,
+            sigma_h_m: f64::NAN,
+            sigma_v_m: f64::NAN,
             sigma_vel_mps: f64::NAN,
             quality: None,
         });

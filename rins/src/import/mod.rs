@@ -17,6 +17,7 @@
 pub mod columns;
 pub mod comma;
 pub mod csv;
+pub mod fixcheck;
 pub mod kfgins;
 pub mod npy;
 pub mod rtklib;
@@ -76,6 +77,9 @@ pub struct ImportReport {
     pub fixes_by_q: [usize; 6],
     /// GPST (Unix-epoch scale) of the recording's `t_s = 0`.
     pub t0_gpst: f64,
+    /// The fixes against the log's reference solution, when it has one
+    /// (comma2k19's pose), and the sigmas they were written with.
+    pub fixes_against_reference: Option<fixcheck::FixesAgainstReference>,
 }
 
 /// The IMU samples' GPST (s) and how the clock was found.
