@@ -200,7 +200,12 @@ const NAVIGATE: Walk = Walk {
         changes("--gnss-position-only", &["{drive}", "--gnss", "--gnss-position-only", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--time-offset-s", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--out", "{out}/n"], NAV),
-        changes("--estimate-lever-arm", &["{fix}/walkrec", "--gnss", "--estimate-lever-arm", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
+        changes("--estimate-lever-arm", &["{fix}/walkrec", "--gnss", "--estimate-lever-arm", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--keep-given-arm", "--out", "{out}/n"], NAV),
+        // The walk's fixes refute its author's arm: by default navigate
+        // takes theirs, told to keep the given one it does.
+        changes("--keep-given-arm", &["{fix}/walkrec", "--gnss", "--keep-given-arm", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
+        refused("--keep-given-arm", &["{fix}/walkrec", "--gnss", "--keep-given-arm", "--estimate-lever-arm", "--out", "{out}/n"], &["cannot be used with"]),
+        refused("--keep-given-arm", &["{rec}", "--keep-given-arm", "--out", "{out}/n"], &["--gnss"]),
         refused("--estimate-lever-arm", &["{rec}", "--estimate-lever-arm", "--out", "{out}/n"], &["--gnss"]),
         // Both: estimated together (rins::aided::joint), not one after the other.
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--estimate-lever-arm", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-lever-arm", "--out", "{out}/n"], NAV),

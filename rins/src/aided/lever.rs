@@ -255,6 +255,9 @@ pub struct LeverHint {
     /// A resolved component lies more than 3 of its sigmas and
     /// [`FINE_M`] from the given arm: re-run with the estimate.
     pub recommended: bool,
+    /// The run was navigated again with the estimate (`navigate` does
+    /// unless told `--keep-given-arm`).
+    pub applied: bool,
 }
 
 impl LeverHint {
@@ -271,12 +274,14 @@ impl LeverHint {
                     estimate: Some(e),
                     error: None,
                     recommended,
+                    applied: false,
                 }
             }
             Err(e) => Self {
                 estimate: None,
                 error: Some(format!("{e:#}")),
                 recommended: false,
+                applied: false,
             },
         }
     }
@@ -286,8 +291,13 @@ impl LeverHint {
         let arm = |v: [f64; 3]| format!("{:+.3}, {:+.3}, {:+.3} m", v[0], v[1], v[2]);
         match (&self.estimate, self.recommended) {
             (Some(e), true) => format!(
-                "antenna lever arm: the fixes' NIS puts it at {} in b, not the given {} (NIS per dof {:.2} -> {:.2}): navigate with --estimate-lever-arm\n",
-                arm(e.b_m), arm(e.given_b_m), e.nis_per_dof[0], e.nis_per_dof[1]
+                "antenna lever arm: the fixes' NIS puts it at {} in b, not the given {} (NIS per dof {:.2} -> {:.2}): {}\n",
+                arm(e.b_m), arm(e.given_b_m), e.nis_per_dof[0], e.nis_per_dof[1],
+                if self.applied {
+                    "navigated with it, above (--keep-given-arm: with the given one)"
+                } else {
+                    "navigate with --estimate-lever-arm"
+                }
             ),
             (Some(e), false) => format!(
                 "antenna lever arm: the fixes' NIS puts it where given ({}): not the arm\n",

@@ -121,11 +121,19 @@ pub fn least(grid: &[(f64, f64, f64)], step: f64) -> Option<(f64, f64)> {
 /// re-initialisations).
 pub const HINT_REJECTED_SHARE: f64 = 0.05;
 
-/// What in a finished run points at a clock offset between the IMU and
-/// the receiver: re-initialisations with fixes arriving (not the ones an
-/// outage's error caused), or the gate refusing more than
-/// [`HINT_REJECTED_SHARE`] of the components (of every kind of update:
-/// the fixes' are most of them). `None`: neither.
+/// The fixes' NIS per component above which a run says they sit farther
+/// from it than their sigmas allow: half again the variance they state.
+/// Over the hundreds of fixes a run has, a consistent filter's mean is 1
+/// within a few per cent (chi-square over their count); the real walk
+/// with its author's antenna arm reads 1.8 (and 51 % of its fixes inside
+/// their bounds), with the arm its fixes give 1.1 in the pre-pass.
+pub const HINT_NIS_PER_DOF: f64 = 1.5;
+
+/// What in a finished run points at its clocks or its antenna:
+/// re-initialisations with fixes arriving (not the ones an outage's error
+/// caused), the gate refusing more than [`HINT_REJECTED_SHARE`] of the
+/// components (of every kind of update: the fixes' are most of them), or
+/// the fixes' NIS per component above [`HINT_NIS_PER_DOF`]. `None`: none.
 pub fn symptom(s: &super::AidedSummary, run: &super::AidedRun) -> Option<String> {
     let lost = s
         .reinit_at
@@ -135,14 +143,23 @@ pub fn symptom(s: &super::AidedSummary, run: &super::AidedRun) -> Option<String>
     let used: f64 = run.nis.iter().map(|x| f64::from(x.2)).sum();
     let refused = f64::from(s.rejected);
     let share = refused / (refused + used).max(1.0);
-    match (lost, share > HINT_REJECTED_SHARE) {
-        (0, false) => None,
-        (n, true) => Some(format!(
-            "the gate refused {:.0} % of the components ({n} re-initialisations with fixes arriving)",
+    let nis = s.nis_mean_per_dof.filter(|n| *n > HINT_NIS_PER_DOF);
+    let mut said = vec![];
+    if share > HINT_REJECTED_SHARE {
+        said.push(format!(
+            "the gate refused {:.0} % of the components",
             100.0 * share
-        )),
-        (n, false) => Some(format!("{n} re-initialisations with fixes arriving")),
+        ));
     }
+    if lost > 0 {
+        said.push(format!("{lost} re-initialisations with fixes arriving"));
+    }
+    if let Some(n) = nis {
+        said.push(format!(
+            "the fixes' NIS per component is {n:.2} (their sigmas allow about 1)"
+        ));
+    }
+    (!said.is_empty()).then(|| said.join("; "))
 }
 
 /// A run's symptom and the offset the fixes' NIS then finds.

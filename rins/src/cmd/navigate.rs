@@ -113,6 +113,12 @@ pub struct Args {
     /// it; an axis the motion does not turn about is kept as given.
     #[arg(long, requires = "gnss")]
     pub estimate_lever_arm: bool,
+    /// Navigate with the given antenna arm even when the fixes refute it.
+    /// Without it, a run whose fixes sit farther off than their sigmas
+    /// allow, its clocks cleared, and whose arm the fixes put more than 3
+    /// sigma from the given one navigates again with theirs (said)
+    #[arg(long, requires = "gnss", conflicts_with = "estimate_lever_arm")]
+    pub keep_given_arm: bool,
     /// The base is a land vehicle (`car`): it does not slide sideways or
     /// leave the road, and the recording's odometer.csv (if any) is its
     /// speed. Its forward axis in b and the odometer's scale are
@@ -326,7 +332,7 @@ pub fn run(a: &Args) -> Result<()> {
 /// (or unresolved), and the fixes' NIS before and after.
 /// What a run's symptom points at, one hypothesis at a time: the clocks
 /// (unless `--estimate-time-offset` ran), then, when they are cleared,
-/// the antenna's arm (unless `--estimate-lever-arm` ran); each printed.
+/// the antenna's arm (unless `--estimate-lever-arm` ran).
 fn symptom_hints(
     rec: &recording::Recording,
     opt: &rins::aided::AidedOptions,
@@ -349,7 +355,6 @@ fn symptom_hints(
     let Some(h) = hint else {
         return (None, None);
     };
-    print!("{}", h.text());
     if h.recommended || lever_done {
         return (Some(h), None);
     }
@@ -358,7 +363,6 @@ fn symptom_hints(
         pb.set_position((f * 1000.0) as u64)
     });
     pb.finish_and_clear();
-    print!("{}", l.text());
     (Some(h), Some(l))
 }
 
@@ -507,17 +511,43 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         _ => None,
     };
     let pb = progress_bar("navigate --gnss");
-    let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    let mut run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
     pb.finish_and_clear();
+    let mut summary = rins::aided::summary(rec, &run);
+    let (hint, mut lever_hint) =
+        symptom_hints(rec, &opt, &summary, &run, offset.is_some(), lever.is_some());
+    let refuted = lever_hint
+        .as_mut()
+        .filter(|l| l.recommended && !a.keep_given_arm)
+        .and_then(|l| {
+            l.applied = true;
+            l.estimate.as_ref().map(|e| e.b_m)
+        });
+    if let Some(b) = refuted {
+        opt.lever_b_m = Some(b);
+        let pb = progress_bar("navigate --gnss, the fixes' arm");
+        run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+        pb.finish_and_clear();
+        summary = rins::aided::summary(rec, &run);
+    }
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     write_file(
         &a.out.join("trajectory.csv"),
         &rins::aided::trajectory_csv(&run.rows),
     )?;
-    let summary = rins::aided::summary(rec, &run);
     print!("{}", summary.text());
-    let (hint, lever_hint) =
-        symptom_hints(rec, &opt, &summary, &run, offset.is_some(), lever.is_some());
+    if refuted.is_some() {
+        println!("the run with the given antenna arm, before:");
+    }
+    for text in [
+        hint.as_ref().map(|h| h.text()),
+        lever_hint.as_ref().map(|l| l.text()),
+    ]
+    .into_iter()
+    .flatten()
+    {
+        print!("{text}");
+    }
     println!("wrote {}", a.out.join("trajectory.csv").display());
     let plots = rins::aided::plots(rec, &run, &a.out)?;
     println!(
