@@ -258,6 +258,8 @@ pub struct LeverHint {
     /// The run was navigated again with the estimate (`navigate` does
     /// unless told `--keep-given-arm`).
     pub applied: bool,
+    /// Why a recommended estimate was navigated with but not kept.
+    pub kept_given_because: Option<String>,
 }
 
 impl LeverHint {
@@ -275,6 +277,7 @@ impl LeverHint {
                     error: None,
                     recommended,
                     applied: false,
+                    kept_given_because: None,
                 }
             }
             Err(e) => Self {
@@ -282,6 +285,7 @@ impl LeverHint {
                 error: Some(format!("{e:#}")),
                 recommended: false,
                 applied: false,
+                kept_given_because: None,
             },
         }
     }
@@ -293,10 +297,10 @@ impl LeverHint {
             (Some(e), true) => format!(
                 "antenna lever arm: the fixes' NIS puts it at {} in b, not the given {} (NIS per dof {:.2} -> {:.2}): {}\n",
                 arm(e.b_m), arm(e.given_b_m), e.nis_per_dof[0], e.nis_per_dof[1],
-                if self.applied {
-                    "navigated with it, above (--keep-given-arm: with the given one)"
-                } else {
-                    "navigate with --estimate-lever-arm"
+                match (self.applied, &self.kept_given_because) {
+                    (true, _) => "navigated with it, above (--keep-given-arm: with the given one)".to_string(),
+                    (false, Some(why)) => format!("navigated with it, but kept the given one: {why}"),
+                    (false, None) => "navigate with --estimate-lever-arm".to_string(),
                 }
             ),
             (Some(e), false) => format!(

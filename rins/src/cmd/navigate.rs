@@ -116,8 +116,13 @@ pub struct Args {
     /// Navigate with the given antenna arm even when the fixes refute it.
     /// Without it, a run whose fixes sit farther off than their sigmas
     /// allow, its clocks cleared, and whose arm the fixes put more than 3
-    /// sigma from the given one navigates again with theirs (said)
-    #[arg(long, requires = "gnss", conflicts_with = "estimate_lever_arm")]
+    /// sigma from the given one navigates again with theirs (said). Not
+    /// with --estimate-time-offset (its runs look no further)
+    #[arg(
+        long,
+        requires = "gnss",
+        conflicts_with_all = ["estimate_lever_arm", "estimate_time_offset"]
+    )]
     pub keep_given_arm: bool,
     /// The base is a land vehicle (`car`): it does not slide sideways or
     /// leave the road, and the recording's odometer.csv (if any) is its
@@ -524,12 +529,30 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             l.estimate.as_ref().map(|e| e.b_m)
         });
     if let Some(b) = refuted {
-        opt.lever_b_m = Some(b);
+        let theirs = rins::aided::AidedOptions {
+            lever_b_m: Some(b),
+            ..opt.clone()
+        };
         let pb = progress_bar("navigate --gnss, the fixes' arm");
-        run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+        let again =
+            rins::aided::navigate(rec, &theirs, &mut |f| pb.set_position((f * 1000.0) as u64))?;
         pb.finish_and_clear();
-        summary = rins::aided::summary(rec, &run);
+        let s = rins::aided::summary(rec, &again);
+        // Kept only when the fixes agree with it better over the whole
+        // run (the pre-pass measured that on its own runs).
+        let nis = |s: &rins::aided::AidedSummary| s.nis_mean_per_dof.unwrap_or(f64::INFINITY);
+        if nis(&s) < nis(&summary) {
+            (run, summary) = (again, s);
+        } else if let Some(l) = lever_hint.as_mut() {
+            l.applied = false;
+            l.kept_given_because = Some(format!(
+                "with it the fixes' NIS per component was {:.2}, not below the given arm's {:.2}",
+                nis(&s),
+                nis(&summary)
+            ));
+        }
     }
+    let refuted = refuted.filter(|_| lever_hint.as_ref().is_some_and(|l| l.applied));
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     write_file(
         &a.out.join("trajectory.csv"),

@@ -4,8 +4,8 @@
 //!
 //! Why not from the filter's innovations: a receiver that filters its own
 //! fixes (the comma2k19 u-blox) gives fixes that agree with each other to
-//! a decimetre while the whole track sits 0.4 m and 1.1 m (east, down) off
-//! the pose; the innovations see the scatter, not the offset, and scaling
+//! a decimetre while the whole track sits 0.4 m west of the pose and 1.1 m
+//! above it; the innovations see the scatter, not the offset, and scaling
 //! the stated sigma until they look right makes the filter overconfident
 //! (the book's aided chapter, the car's fix sigma).
 
@@ -46,14 +46,12 @@ pub struct FixesAgainstReference {
 }
 
 impl FixesAgainstReference {
-    /// The 1-sigma the measurement gives, m: horizontal the root mean
-    /// square of north and east, vertical down's, each at least 1 cm.
+    /// The 1-sigma the measurement gives, m: horizontal the larger of
+    /// north's and east's root mean square (one figure for both axes must
+    /// cover the worse), vertical down's, each at least 1 cm.
     pub fn sigma_m(&self) -> [f64; 2] {
         let [n, e, d] = self.rms_ned_m;
-        [
-            ((n * n + e * e) / 2.0).sqrt().max(SIGMA_FLOOR_M),
-            d.max(SIGMA_FLOOR_M),
-        ]
+        [n.max(e).max(SIGMA_FLOOR_M), d.max(SIGMA_FLOOR_M)]
     }
 
     /// One line for the import's summary.
@@ -66,7 +64,7 @@ impl FixesAgainstReference {
             "as given"
         };
         format!(
-            "the fixes against {reference}: fit best {:+.3} s after their epochs (navigate --time-offset-s), then off by mean N {mn:+.2}, E {me:+.2}, D {md:+.2} m, rms {rn:.2}, {re:.2}, {rd:.2} m ({} fixes); their 1-sigma {:.2} m horizontal, {:.2} m vertical ({from})",
+            "the fixes against {reference}: they fit it best {:+.3} s after their epochs, and are written there (on its clock, the IMU's); then off by mean N {mn:+.2}, E {me:+.2}, D {md:+.2} m, rms {rn:.2}, {re:.2}, {rd:.2} m ({} fixes)\ntheir 1-sigma {:.2} m horizontal, {:.2} m vertical ({from})",
             self.shift_s, self.fixes, self.sigma_h_m, self.sigma_v_m
         )
     }
