@@ -149,7 +149,10 @@ pub fn align(rec: &Recording, fixes: &[GnssRow], g: f64) -> anyhow::Result<Align
     }
     let weight: f64 = angles.iter().map(|a| a.1).sum();
     if dot.hypot(cross) < MIN_DV_SUM_MPS * MIN_DV_SUM_MPS || angles.len() < 4 {
-        anyhow::bail!("too little motion in the {HEADING_WINDOW_S} s after {still_end_s:.1} s to find the heading from the fixes");
+        anyhow::bail!(
+            "too little motion in the {HEADING_WINDOW_S} s after {still_end_s:.1} s to find the heading from the fixes ({} fix pairs there; a --gnss-outage cut there withholds them)",
+            angles.len()
+        );
     }
     let psi = cross.atan2(dot);
     let wrap = |x: f64| {

@@ -306,8 +306,9 @@ impl FixFeed {
     }
 
     /// The fixes of `fixes` up to `upto_s` into `an` (none before the
-    /// run's first step, `first`: counted refused in `run`); the last one
-    /// handed.
+    /// run's first step, `first`: counted refused in `run`), each valid
+    /// at its own time on the mechanization's clock (`to_us`, from s); the
+    /// last one handed.
     pub fn before_step<T: Real>(
         &mut self,
         an: &mut HostNav<T>,
@@ -315,6 +316,7 @@ impl FixFeed {
         upto_s: f64,
         first: bool,
         run: &mut AidedRun,
+        to_us: &dyn Fn(f64) -> u64,
     ) -> Option<GnssFix> {
         let mut handed = None;
         while let Some(f) = fixes.get(self.next).filter(|f| f.t_s <= upto_s) {
@@ -324,7 +326,11 @@ impl FixFeed {
                 continue;
             }
             let fix = f.to_fix();
-            an.gnss(&fix);
+            // At its own time: the navigator carries the stored state
+            // nearest it there (a time it cannot hold: at the step).
+            if an.gnss_at(&fix, to_us(f.t_s)).is_err() {
+                an.gnss(&fix);
+            }
             handed = Some(fix);
         }
         handed
@@ -458,7 +464,7 @@ pub fn run<T: Real>(
     for (k, r) in rec.imu.iter().enumerate() {
         let t = r.t_s;
         let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
-        let handed = feed.before_step(&mut an, &input.fixes, upto, k == 0, &mut run);
+        let handed = feed.before_step(&mut an, &input.fixes, upto, k == 0, &mut run, &input.to_us);
         let (table, sample) = (input.table::<T>(t), input.sample::<T>(k));
         let reinits_before = an.counts.reinits;
         let mut step = AidedStep::default();
