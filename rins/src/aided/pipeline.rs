@@ -292,9 +292,9 @@ pub fn aids<T: Real>(rec: &Recording, opt: &AidedOptions, an: &HostNav<T>) -> Ve
     aids
 }
 
-/// Hands the navigator the fixes due before a step: those up to the
-/// midpoint to the next sample (a logger's samples need not be evenly
-/// spaced).
+/// Hands the navigator the fixes due before a step: those up to its
+/// sample's time, each with its own time of validity (a logger's samples
+/// need not be evenly spaced, nor its fixes fall on them).
 pub struct FixFeed {
     next: usize,
 }
@@ -459,12 +459,12 @@ pub fn run<T: Real>(
     let mut feed = FixFeed::new();
     let mut last_fix_s = f64::NEG_INFINITY;
     let n = rec.imu.len();
-    let half = 0.5 / rec.meta.imu_rate_hz;
     let every_s = rec.meta.imu_rate_hz.round().max(1.0) as usize;
     for (k, r) in rec.imu.iter().enumerate() {
         let t = r.t_s;
-        let upto = rec.imu.get(k + 1).map_or(t + half, |n| 0.5 * (t + n.t_s));
-        let handed = feed.before_step(&mut an, &input.fixes, upto, k == 0, &mut run, &input.to_us);
+        // Fixes up to this sample: each in the past of the step that takes
+        // it, compared with the track at its own time.
+        let handed = feed.before_step(&mut an, &input.fixes, t, k == 0, &mut run, &input.to_us);
         let (table, sample) = (input.table::<T>(t), input.sample::<T>(k));
         let reinits_before = an.counts.reinits;
         let mut step = AidedStep::default();
