@@ -180,7 +180,8 @@ impl<T: Real> NoiseLearner<T> {
 
     /// After the main navigator's step at `t_s` on `sample` (the table at
     /// `table`, turning at `rate` rad/s): the shadow steps too; `fix` is
-    /// the fix the main one was handed before this step, if any. A shadow
+    /// the fix the main one was handed before this step, if any, with its
+    /// time of validity (µs, the mechanization's clock). A shadow
     /// that has run [`HORIZON_S`] takes it as its return; a new shadow
     /// starts from the main one after a fix.
     pub fn after_step(
@@ -190,13 +191,14 @@ impl<T: Real> NoiseLearner<T> {
         sample: &ImuSample<T>,
         table: &TableAngle<T>,
         rate: T,
-        fix: Option<&GnssFix>,
+        fix: Option<&(GnssFix, u64)>,
     ) {
         if let Some((t0, sh)) = self.shadow.as_mut() {
             let due = t_s - *t0 >= HORIZON_S;
             if let (true, Some(f)) = (due, fix) {
                 sh.kf.take_seen();
-                sh.gnss(f);
+                // At its own time, as the main navigator took it.
+                crate::aided::pipeline::hand_over(sh, &f.0, f.1);
                 let seen = sh.step(sample, table, rate).map(|_| sh.kf.take_seen());
                 self.shadow = None;
                 if let Ok(seen) = seen {

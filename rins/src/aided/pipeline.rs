@@ -36,8 +36,9 @@ pub struct StepView<'a, T: Real> {
     pub table: &'a TableAngle<T>,
     /// The table's rate there, rad/s.
     pub table_rate: T,
-    /// The fix handed over before this step, if any.
-    pub handed: Option<&'a GnssFix>,
+    /// The fix handed over before this step, if any, and its time of
+    /// validity on the mechanization's clock (µs).
+    pub handed: Option<&'a (GnssFix, u64)>,
     /// What the step did.
     pub step: &'a AidedStep<T>,
     /// A fix was used within the last two seconds.
@@ -317,7 +318,7 @@ impl FixFeed {
         first: bool,
         run: &mut AidedRun,
         to_us: &dyn Fn(f64) -> u64,
-    ) -> Option<GnssFix> {
+    ) -> Option<(GnssFix, u64)> {
         let mut handed = None;
         while let Some(f) = fixes.get(self.next).filter(|f| f.t_s <= upto_s) {
             self.next += 1;
@@ -325,15 +326,21 @@ impl FixFeed {
                 run.refused += 1;
                 continue;
             }
-            let fix = f.to_fix();
-            // At its own time: the navigator carries the stored state
-            // nearest it there (a time it cannot hold: at the step).
-            if an.gnss_at(&fix, to_us(f.t_s)).is_err() {
-                an.gnss(&fix);
-            }
-            handed = Some(fix);
+            let (fix, t_us) = (f.to_fix(), to_us(f.t_s));
+            hand_over(an, &fix, t_us);
+            handed = Some((fix, t_us));
         }
         handed
+    }
+}
+
+/// Hands `fix` to `an` at its own time `t_us` (µs): the navigator
+/// carries the stored state nearest it there. A time it cannot hold (the
+/// first steps of a run, before it has a sample interval; a sample's
+/// jitter of a microsecond past the next one): at the step, as it is.
+pub fn hand_over<T: Real>(an: &mut HostNav<T>, fix: &GnssFix, t_us: u64) {
+    if an.gnss_at(fix, t_us).is_err() {
+        an.gnss(fix);
     }
 }
 
