@@ -895,7 +895,10 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         // The next step's state is stored before the fix is used: a time
         // up to one sample interval ahead is in the stored states by then.
         let now = self.nav.state().t_us;
-        if t_valid_us > now + 2 * self.half_period_us() {
+        // Saturating: a time near u64::MAX (a malformed log) is refused,
+        // never an overflow.
+        let half = self.half_period_us();
+        if t_valid_us > now.saturating_add(half.saturating_mul(2)) {
             return Err(FixAge::FromTheFuture);
         }
         let oldest = self
@@ -905,7 +908,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             .filter(|t| *t != u64::MAX)
             .min()
             .unwrap_or(now);
-        if t_valid_us + self.half_period_us() < oldest {
+        if t_valid_us.saturating_add(half) < oldest {
             return Err(FixAge::TooOld);
         }
         self.pending_at = Some(t_valid_us);
