@@ -269,6 +269,14 @@ pub struct AidedConfig {
     pub zupt: bool,
     /// The detector's per-sample noise.
     pub zupt_noise: ZuptNoise,
+    /// How long before its time of validity a fix's velocity was valid,
+    /// horizontal (north, east) and vertical, s (>= 0; 0: a Doppler
+    /// velocity at the epoch). A receiver that forms its velocity from its
+    /// positions or filters it reports a mean over the past: the fix's
+    /// velocity is compared with the stored state that long before its
+    /// position's time. Within the [`HISTORY`] (beyond it, the oldest
+    /// stored state is taken).
+    pub velocity_lag_s: [f64; 2],
 }
 
 /// The per-sample noise the zero-velocity detector measures against: the
@@ -579,6 +587,7 @@ impl AidedConfig {
             sigma_w_radps: 0.0,
             sigma_table_rate_radps: 0.0,
         },
+        velocity_lag_s: [0.0; 2],
     };
 }
 
@@ -954,6 +963,28 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         })
     }
 
+    /// The antenna's velocity a fix's velocity is compared with (m/s, `n`):
+    /// the stored state's at the fix's time less the receiver's velocity
+    /// lag ([`AidedConfig::velocity_lag_s`]), horizontal and vertical each
+    /// at its own; `at`'s where the lag is 0.
+    fn fix_velocity_reference(&self, at: &Past<T>) -> Vector3<T> {
+        let antenna = |p: &Past<T>| p.v_n + p.c_b_n * p.w_ib_b.cross(&self.lever_b);
+        let back = |lag_s: f64| {
+            // Saturating: a negative or NaN lag is 0.
+            let us = (lag_s * 1e6) as u64;
+            match us {
+                0 => antenna(at),
+                _ => self
+                    .past_at(at.t_us.saturating_sub(us))
+                    .map_or_else(|| antenna(at), |p| antenna(&p)),
+            }
+        };
+        let [lag_h, lag_v] = self.cfg.velocity_lag_s;
+        let h = back(lag_h);
+        let v = back(lag_v);
+        Vector3::new(h.x, h.y, v.z)
+    }
+
     /// The fix's antenna position as offsets from the origin in the
     /// mechanization's coordinates (north, east, down, m).
     pub fn fix_position_n(&self, fix: &GnssFix) -> Vector3<T> {
@@ -1190,7 +1221,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
     ) -> (T, u8, bool) {
         let l_n = at.c_b_n * self.lever_b;
         let zp = self.fix_position_n(fix) - (at.p_n + l_n);
-        let v_ant = at.v_n + at.c_b_n * at.w_ib_b.cross(&self.lever_b);
+        let v_ant = self.fix_velocity_reference(at);
         let v_fix = Vector3::from(fix.v_n_mmps).map(|v| T::lit(f64::from(v) * 1e-3));
         let zv = v_fix - v_ant;
         let [gh, gv] = self.kf.config().gnss_corr_sigma_m;
@@ -1505,6 +1536,31 @@ mod tests {
         let p = a.past_at(14_000).unwrap();
         assert!((p.p_n.y - 0.008).abs() < 1e-6, "{}", p.p_n.y);
         assert!((p.p_n.x - 1.006).abs() < 1e-6, "{}", p.p_n.x);
+    }
+
+    #[test]
+    fn a_lagging_velocity_is_compared_with_the_state_it_describes() {
+        // A track speeding up north at 2 m/s^2 and climbing at 1 m/s^2,
+        // stored every 10 ms: a receiver whose horizontal velocity is
+        // 0.13 s old and vertical 0.3 s old is compared with the states
+        // then (the fix's time 0.5 s), not the velocity at its tag.
+        let mut a = AidedNav::BLANK;
+        for (k, p) in a.past.iter_mut().enumerate() {
+            let t = k as f32 * 0.01;
+            *p = Past {
+                t_us: k as u64 * 10_000,
+                p_n: Vector3::zeros(),
+                v_n: Vector3::new(2.0 * t, 0.0, -t),
+                c_b_n: Matrix3::identity(),
+                w_ib_b: Vector3::zeros(),
+            };
+        }
+        let at = a.past_at(500_000).unwrap();
+        assert_eq!(a.fix_velocity_reference(&at), at.v_n);
+        a.cfg.velocity_lag_s = [0.13, 0.3];
+        let v = a.fix_velocity_reference(&at);
+        // 2 (0.5 - 0.13) north, -(0.5 - 0.3) down, to f32's ulps.
+        assert!((v.x - 0.74).abs() < 1e-6 && (v.z + 0.2).abs() < 1e-6, "{v}");
     }
 
     #[test]

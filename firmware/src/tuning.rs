@@ -35,6 +35,9 @@ pub const ICM42688_FILTER: AidedConfig = AidedConfig {
         sigma_w_radps: SIGMA_W,
         sigma_table_rate_radps: crate::rig::SIGMA_TABLE_RATE_RADPS,
     },
+    // Fixes come over the command link, each velocity at its fix's time of
+    // validity (the sender's to shift).
+    velocity_lag_s: [0.0; 2],
 };
 
 /// The board's tuning: the tick's and navigation's defaults (1 kHz rate

@@ -172,6 +172,8 @@ impl Header {
                     sigma_w_radps: g(29)?,
                     sigma_table_rate_radps: g(30)?,
                 },
+                // The board takes no velocity lag (tuning.rs).
+                velocity_lag_s: [0.0; 2],
             };
             Some((g(0)?, cfg))
         } else {

@@ -14,7 +14,8 @@ What pyins gets, and from where (rins's own recording, nothing more):
 - the IMU samples of imu.csv (already in the base frame, FRD), as rates;
 - the fixes of gnss.csv outside the outages: positions (RTK fixed and
   float as two measurements, each with its floor: 0.02 and 0.3 m, the
-  floors rins applies) and NED velocities (0.05 m/s);
+  floors rins applies) and NED velocities (0.05 m/s), each at the time
+  it was valid when told (`--velocity-lag`, the lags rins found and took);
 - the start attitude from an alignment of its own (`align` below: level
   from the still start's mean specific force, heading from the first
   seconds of walking by turning pyins's own strapdown velocity changes
@@ -43,6 +44,28 @@ G0 = 9.80665
 
 class FloatPosition(measurements.Position):
     """RTK float fixes (their own sigma)."""
+
+
+class PartVelocity(measurements.NedVelocity):
+    """Some components of the fixes' NED velocity (`rows`), each fix's at
+    the time it was valid (`--velocity-lag`)."""
+    rows = [0, 1, 2]
+
+    def compute_matrices(self, time, pva, error_model):
+        ret = super().compute_matrices(time, pva, error_model)
+        if ret is None:
+            return None
+        z, H, R = ret
+        k = self.rows
+        return np.asarray(z)[k], np.asarray(H)[k], np.asarray(R)[np.ix_(k, k)]
+
+
+class HorizontalVelocity(PartVelocity):
+    rows = [0, 1]
+
+
+class VerticalVelocity(PartVelocity):
+    rows = [2]
 
 
 def align(imu, increments, fixes, first_fix):
@@ -146,6 +169,10 @@ def main():
     ap.add_argument("--outage", action="append", default=[], help="START:LEN, s")
     ap.add_argument("--lever-arm", default=None,
                     help="X,Y,Z: the antenna from the IMU in the body frame, m")
+    ap.add_argument("--velocity-lag", default="0,0",
+                    help="H,V: how long before its time tag each fix's velocity "
+                         "was valid, horizontal and vertical, s (rins's summary: "
+                         "fix_velocity_lag, the lags it took)")
     ap.add_argument("--noise-from", default=None,
                     help="rins navigate --json output: pyins gets the process "
                          "noise rins's filter started from (every term)")
@@ -154,6 +181,7 @@ def main():
     if a.lever_arm is not None:
         lever = np.array([float(x) for x in a.lever_arm.split(",")])
     outages = [tuple(float(x) for x in o.split(":")) for o in a.outage]
+    lag_h, lag_v = (float(x) for x in a.velocity_lag.split(","))
 
     imu = pd.DataFrame(read_csv(f"{a.rec}/imu.csv")).astype(float)
     imu = imu.set_index("t_s")
@@ -182,9 +210,14 @@ def main():
         if len(part):
             meas.append(kind(part[["lat", "lon", "alt"]], sd, imu_to_antenna_b=lever))
     if "vn_mps" in lla:
-        v = lla.rename(columns={"vn_mps": "VN", "ve_mps": "VE", "vd_mps": "VD"})
-        meas.append(measurements.NedVelocity(v[["VN", "VE", "VD"]], 0.05,
-                                             imu_to_antenna_b=lever))
+        v = lla.rename(columns={"vn_mps": "VN", "ve_mps": "VE", "vd_mps": "VD"})[["VN", "VE", "VD"]]
+        # Each part at the time it was valid: its tag less the lag.
+        for kind, lag in ((HorizontalVelocity, lag_h), (VerticalVelocity, lag_v)):
+            part = v.copy()
+            part.index = part.index - lag
+            part = part[(part.index > grid[0]) & (part.index < grid[-1])]
+            part = part[~np.isin(part.index.values, grid)]
+            meas.append(kind(part, 0.05, imu_to_antenna_b=lever))
 
     f0 = fixes.iloc[0]
     pva = pd.Series({

@@ -22,6 +22,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod fixvel;
 pub mod joint;
 pub mod learn;
 pub mod lever;
@@ -176,6 +177,11 @@ pub struct AidedRow {
     pub still: bool,
     /// A zero-velocity update was applied at this sample.
     pub zupt: bool,
+    /// The filter's gyro bias estimate, x, y, z of the sensor frame `s`,
+    /// rad/s (subtracted from each sample).
+    pub gyro_bias_radps: [f64; 3],
+    /// The filter's accelerometer bias estimate in `s`, m/s^2.
+    pub accel_bias_mps2: [f64; 3],
 }
 
 /// A navigation run.
@@ -238,6 +244,9 @@ pub struct AidedRun {
     pub learnt: Option<learn::LearnReport>,
     /// The process noise the filter started from (the sensor file's).
     pub process_noise: learn::ProcessNoise,
+    /// When the fixes' velocity was valid, found from their positions
+    /// (`None`: too few fixes with a velocity).
+    pub velocity_lag: Option<fixvel::VelocityLag>,
 }
 
 /// The fixes the filter gets: each at its time on the IMU's clock
@@ -411,6 +420,7 @@ pub fn aided_config(
         antenna_b_m,
         zupt: opt.zupt,
         zupt_noise,
+        velocity_lag_s: [0.0; 2],
     }
 }
 
@@ -430,11 +440,12 @@ pub const INITIAL_SIGMA: InitialSigma = InitialSigma {
     heading_rad: 2.0 * core::f64::consts::PI / 180.0,
 };
 
-/// trajectory.csv with the filter's sigmas as extra columns
-/// (trajectory-v1 allows extra columns named with their units).
+/// trajectory.csv with the filter's sigmas and its sensor bias estimates
+/// (in the sensor frame `s`) as extra columns (trajectory-v1 allows extra
+/// columns named with their units).
 pub fn trajectory_csv(rows: &[AidedRow]) -> String {
     let mut s = String::with_capacity(rows.len() * 200);
-    s.push_str("t_s,north_m,east_m,down_m,vn_mps,ve_mps,vd_mps,roll_deg,pitch_deg,heading_deg,sigma_north_m,sigma_east_m,sigma_down_m,sigma_vn_mps,sigma_ve_mps,sigma_vd_mps,sigma_roll_deg,sigma_pitch_deg,sigma_heading_deg,gnss_fix,still,zupt\n");
+    s.push_str("t_s,north_m,east_m,down_m,vn_mps,ve_mps,vd_mps,roll_deg,pitch_deg,heading_deg,sigma_north_m,sigma_east_m,sigma_down_m,sigma_vn_mps,sigma_ve_mps,sigma_vd_mps,sigma_roll_deg,sigma_pitch_deg,sigma_heading_deg,gnss_fix,still,zupt,gyro_bias_x_radps,gyro_bias_y_radps,gyro_bias_z_radps,accel_bias_x_mps2,accel_bias_y_mps2,accel_bias_z_mps2\n");
     for r in rows {
         let t = &r.traj;
         let [n, e, d] = t.ned_m;
@@ -443,8 +454,10 @@ pub fn trajectory_csv(rows: &[AidedRow]) -> String {
         let [sn, se, sd] = r.sigma_p_m;
         let [svn, sve, svd] = r.sigma_v_mps;
         let [sr, sp, sh] = r.sigma_att_deg;
+        let [gx, gy, gz] = r.gyro_bias_radps;
+        let [ax, ay, az] = r.accel_bias_mps2;
         s.push_str(&format!(
-            "{:.3},{n:.4},{e:.4},{d:.4},{vn:.5},{ve:.5},{vd:.5},{ro:.6},{pi:.6},{he:.6},{sn:.4},{se:.4},{sd:.4},{svn:.5},{sve:.5},{svd:.5},{sr:.6},{sp:.6},{sh:.6},{},{},{}\n",
+            "{:.3},{n:.4},{e:.4},{d:.4},{vn:.5},{ve:.5},{vd:.5},{ro:.6},{pi:.6},{he:.6},{sn:.4},{se:.4},{sd:.4},{svn:.5},{sve:.5},{svd:.5},{sr:.6},{sp:.6},{sh:.6},{},{},{},{gx:.7},{gy:.7},{gz:.7},{ax:.6},{ay:.6},{az:.6}\n",
             t.t_s,
             u8::from(r.fix),
             u8::from(r.still),

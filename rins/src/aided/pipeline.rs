@@ -151,6 +151,11 @@ pub fn start<'a, T: Real>(
     cfg.zupt &= moving.is_none();
     cfg.initial = initial;
     cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&input.fixes);
+    // The navigator looks back at most its stored states, less the two a
+    // fix between samples may need.
+    let stored_s = (core_nav::aided::HISTORY - 2) as f64 / m.imu_rate_hz;
+    let velocity_lag = super::fixvel::velocity_lag(&input.fixes, stored_s);
+    cfg.velocity_lag_s = velocity_lag.map_or([0.0; 2], |l| l.taken_s());
     let q_b_n0 = Quaternion::from(euler_to_quat(&euler).coords.map(T::lit));
     let t0 = rec.imu.first().map_or(0.0, |r| r.t_s);
     let Some(first) = input.sample::<T>(0) else {
@@ -175,6 +180,7 @@ pub fn start<'a, T: Real>(
         time_offset_s: opt.time_offset_s,
         process_noise: an.kf.config().into(),
         outages_cut: opt.outages.clone(),
+        velocity_lag,
         ..AidedRun::default()
     };
     Ok((an, run, input))
@@ -382,6 +388,8 @@ pub fn solution_row<T: Real>(
         fix_taken: step.fix_horizontal_taken,
         still: step.still,
         zupt: step.zupt,
+        gyro_bias_radps: f64s(an.kf.bias_g.into()),
+        accel_bias_mps2: f64s(an.kf.bias_a.into()),
     };
     (row, c_b_n)
 }

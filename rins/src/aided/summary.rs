@@ -82,6 +82,9 @@ pub struct AidedSummary {
     /// The process noise the filter started from (the sensor file's):
     /// what a peer is given to compare equals.
     pub process_noise: super::learn::ProcessNoise,
+    /// When the fixes' velocity was valid, from their own positions
+    /// (`None`: too few fixes with a velocity to tell).
+    pub fix_velocity_lag: Option<super::fixvel::VelocityLag>,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -231,6 +234,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         process_noise: run.process_noise,
         moving_start: run.moving_start,
         start: run.start,
+        fix_velocity_lag: run.velocity_lag,
         ..AidedSummary::default()
     };
     s.outages = run
@@ -481,6 +485,7 @@ impl AidedSummary {
             _ => String::new(),
         };
         let mut o = self.start.text();
+        o += &self.fix_velocity_lag.map_or(String::new(), |l| l.text());
         o += &self.moving_start.map_or(String::new(), |m| {
             let [n, e, _] = m.v_n_mps;
             format!(
