@@ -427,6 +427,10 @@ pub struct AidedNav<T: Real, const M: usize = N> {
     refused_run: usize,
     /// The last [`HISTORY`] states (a ring, by sample).
     past: [Past<T>; HISTORY],
+    /// Every velocity correction fed back so far, summed (m/s, `n`): a
+    /// stored state's velocity plus what was added since is the state's
+    /// velocity then as the filter now has it.
+    dv_sum: Vector3<T>,
     past_head: usize,
     /// What has been counted.
     pub counts: AidedCounts,
@@ -540,6 +544,8 @@ struct Past<T: Real> {
     v_n: Vector3<T>,
     c_b_n: Matrix3<T>,
     w_ib_b: Vector3<T>,
+    /// [`AidedNav`]'s sum of velocity corrections when it was stored.
+    dv_sum: Vector3<T>,
 }
 
 impl Past<f32> {
@@ -549,6 +555,7 @@ impl Past<f32> {
         v_n: crate::real::zeros_f32(),
         c_b_n: crate::real::zeros_f32(),
         w_ib_b: crate::real::zeros_f32(),
+        dv_sum: crate::real::zeros_f32(),
     };
 }
 
@@ -627,6 +634,7 @@ impl AidedNav<f32> {
         refused_fixes: [RefusedFix::BLANK; REINIT_FIXES],
         refused_run: 0,
         past: [Past::BLANK; HISTORY],
+        dv_sum: crate::real::zeros_f32(),
         past_head: 0,
         counts: AidedCounts {
             steps_refused: 0,
@@ -650,6 +658,7 @@ impl<T: Real> Default for Past<T> {
             v_n: Vector3::zeros(),
             c_b_n: Matrix3::identity(),
             w_ib_b: Vector3::zeros(),
+            dv_sum: Vector3::zeros(),
         }
     }
 }
@@ -713,6 +722,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             refused_fixes: [RefusedFix::default(); REINIT_FIXES],
             refused_run: 0,
             past: [Past::default(); HISTORY],
+            dv_sum: Vector3::zeros(),
             past_head: 0,
             counts: AidedCounts::default(),
         })
@@ -760,6 +770,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         self.refused_fixes.fill(RefusedFix::default());
         self.refused_run = 0;
         self.past.fill(Past::default());
+        self.dv_sum = Vector3::zeros();
         self.past_head = 0;
         self.counts = AidedCounts::default();
         Ok(())
@@ -877,9 +888,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         if self.vel_next {
             self.vel_next_z -= dv;
         }
-        if self.nav.correct(&dp, &dv, &phi).is_err() {
-            self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
-        }
+        self.feed_back(&dp, &dv, &phi);
         err.map_or(Ok(rep), Err)
     }
 
@@ -966,9 +975,12 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
     /// The antenna's velocity a fix's velocity is compared with (m/s, `n`):
     /// the stored state's at the fix's time less the receiver's velocity
     /// lag ([`AidedConfig::velocity_lag_s`]), horizontal and vertical each
-    /// at its own; `at`'s where the lag is 0.
+    /// at its own, with the velocity corrections made since it was stored
+    /// (a correction in between is not counted twice); `at`'s where the
+    /// lag is 0.
     fn fix_velocity_reference(&self, at: &Past<T>) -> Vector3<T> {
         let antenna = |p: &Past<T>| p.v_n + p.c_b_n * p.w_ib_b.cross(&self.lever_b);
+        let since = |p: &Past<T>| antenna(p) + (self.dv_sum - p.dv_sum);
         let back = |lag_s: f64| {
             // Saturating: a negative or NaN lag is 0.
             let us = (lag_s * 1e6) as u64;
@@ -976,7 +988,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
                 0 => antenna(at),
                 _ => self
                     .past_at(at.t_us.saturating_sub(us))
-                    .map_or_else(|| antenna(at), |p| antenna(&p)),
+                    .map_or_else(|| since(at), |p| since(&p)),
             }
         };
         let [lag_h, lag_v] = self.cfg.velocity_lag_s;
@@ -1092,6 +1104,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             v_n: st.v_n,
             c_b_n,
             w_ib_b,
+            dv_sum: self.dv_sum,
         };
         if let Some(slot) = self.past.get_mut(self.past_head) {
             *slot = here;
@@ -1164,11 +1177,20 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             if vel_set {
                 self.vel_next_z -= dv;
             }
-            if self.nav.correct(&dp, &dv, &phi).is_err() {
-                self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
-            }
+            self.feed_back(&dp, &dv, &phi);
         }
         Ok(out)
+    }
+
+    /// Hands a correction to the mechanization (position m, velocity m/s,
+    /// attitude rad, `n`), its velocity summed for the stored states
+    /// (refused: counted, nothing summed).
+    fn feed_back(&mut self, dp: &Vector3<T>, dv: &Vector3<T>, phi: &Vector3<T>) {
+        if self.nav.correct(dp, dv, phi).is_err() {
+            self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
+        } else {
+            self.dv_sum += dv;
+        }
     }
 
     /// A zero-velocity update against the velocity `v_n` (m/s, `n`) over a
@@ -1515,6 +1537,7 @@ mod tests {
             v_n: Vector3::new(1.5, 0.0, 0.0),
             c_b_n: Matrix3::identity(),
             w_ib_b: Vector3::zeros(),
+            dv_sum: Vector3::zeros(),
         };
         a.past.fill(Past {
             t_us: u64::MAX,
@@ -1553,6 +1576,7 @@ mod tests {
                 v_n: Vector3::new(2.0 * t, 0.0, -t),
                 c_b_n: Matrix3::identity(),
                 w_ib_b: Vector3::zeros(),
+                dv_sum: Vector3::zeros(),
             };
         }
         let at = a.past_at(500_000).unwrap();
@@ -1561,6 +1585,14 @@ mod tests {
         let v = a.fix_velocity_reference(&at);
         // 2 (0.5 - 0.13) north, -(0.5 - 0.3) down, to f32's ulps.
         assert!((v.x - 0.74).abs() < 1e-6 && (v.z + 0.2).abs() < 1e-6, "{v}");
+        // A correction of 0.1 m/s north and 0.05 up made since (a fix's
+        // update in between): the states then as the filter now has them.
+        a.dv_sum = Vector3::new(0.1, 0.0, -0.05);
+        let v = a.fix_velocity_reference(&at);
+        assert!(
+            (v.x - 0.84).abs() < 1e-6 && (v.z + 0.25).abs() < 1e-6,
+            "{v}"
+        );
     }
 
     #[test]

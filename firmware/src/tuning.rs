@@ -35,8 +35,9 @@ pub const ICM42688_FILTER: AidedConfig = AidedConfig {
         sigma_w_radps: SIGMA_W,
         sigma_table_rate_radps: crate::rig::SIGMA_TABLE_RATE_RADPS,
     },
-    // Fixes come over the command link, each velocity at its fix's time of
-    // validity (the sender's to shift).
+    // No lag: each fix's velocity is taken at its time of validity. A
+    // receiver whose velocity lags its positions (RTKLIB's) is corrected
+    // by the host's `navigate` only; the link carries one time per fix.
     velocity_lag_s: [0.0; 2],
 };
 

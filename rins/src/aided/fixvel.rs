@@ -14,16 +14,21 @@
 //! the velocity at its midpoint to second order (no lag of its own). The
 //! reported velocity of fix `k` is compared with those midpoint
 //! velocities interpolated at `t_k - lag`; the lag is the one that fits
-//! best in weighted least squares (each difference weighted by the
-//! reported velocity's variance plus the positions' over the interval),
+//! best in weighted least squares (each fix weighted once, by the
+//! reported velocity's variance plus the positions' over the intervals
+//! at its tag: a weight that moved with the lag would pull the fit to
+//! half an epoch),
 //! found on a 1 ms grid over `[-T, 2 T]` (`T` the median fix interval),
 //! horizontal (north, east) and vertical apart. Its 1-sigma is the
 //! least-squares one, `s / sqrt(sum w J^2)` with `J` the interpolated
 //! velocity's time derivative and `s^2` the fit's reduced chi-square (the
 //! stated sigmas' scale measured, not assumed).
 //!
-//! **Taken** where the lag is positive and at least [`SIGNIFICANT`] of
-//! its sigmas from 0, and within what the navigator stores
+//! **Taken** where the lag is positive, at least [`SIGNIFICANT`] of its
+//! sigmas from 0, its fit better than lag 0's and than the lags an epoch
+//! either side (aliases, where the positions' noise hides the motion) by
+//! at least `SIGNIFICANT^2` of the fit's scaled chi-square, and within
+//! what the navigator stores
 //! ([`core_nav::aided::HISTORY`] samples): a velocity from before its tag
 //! is compared with the state then. A lag within its noise of 0 (the
 //! simulated receivers, a Doppler velocity) changes nothing.
@@ -204,35 +209,54 @@ fn fit_lag(
     let comps: &[usize] = if vertical { &[2] } else { &[0, 1] };
     let steps = (3.0 * period / STEP_S).round() as i64;
     let lag_at = |j: i64| -period + j as f64 * STEP_S;
-    let usable: Vec<&Reported> = reported
+    // Each fix weighted once, by its variances at its tag: weights that
+    // moved with the lag (the interpolated variance is least halfway
+    // between two midpoints) would pull the fit towards half an epoch.
+    let usable: Vec<(&Reported, f64)> = reported
         .iter()
         .filter(|r| (0..=steps).all(|j| interp(mids, r.t_s - lag_at(j), period, k).is_some()))
+        .filter_map(|r| interp(mids, r.t_s, period, k).map(|(_, var, _)| (r, 1.0 / (r.var + var))))
         .collect();
     if usable.len() < MIN_FIXES {
         return None;
     }
-    // Weighted sum of squares (and its weight) at a lag.
-    let cost = |lag: f64| -> Option<(f64, f64, f64)> {
-        let (mut chi2, mut wsum, mut jj) = (0.0, 0.0, 0.0);
-        for r in &usable {
-            let (v, var, dv) = interp(mids, r.t_s - lag, period, k)?;
-            let w = 1.0 / (r.var + var);
+    // Weighted sum of squares, its weight and `sum w J^2` at a lag.
+    let cost = |lag: f64| -> Option<[f64; 3]> {
+        let mut acc = [0.0; 3];
+        for (r, w) in &usable {
+            let (v, _, dv) = interp(mids, r.t_s - lag, period, k)?;
             for &c in comps {
-                chi2 += w * (r.v[c] - v[c]).powi(2);
-                jj += w * dv[c].powi(2);
-                wsum += w;
+                acc[0] += w * (r.v[c] - v[c]).powi(2);
+                acc[1] += w;
+                acc[2] += w * dv[c].powi(2);
             }
         }
-        Some((chi2, wsum, jj))
+        Some(acc)
     };
-    let (best, (chi2, wsum, jj)) = (0..=steps)
-        .filter_map(|j| cost(lag_at(j)).map(|c| (lag_at(j), c)))
-        .min_by(|a, b| a.1 .0.total_cmp(&b.1 .0))?;
-    let (chi2_0, wsum_0, _) = cost(0.0)?;
+    let grid: Vec<[f64; 3]> = (0..=steps)
+        .map(|j| cost(lag_at(j)))
+        .collect::<Option<_>>()?;
+    let at = |j: i64| grid.get(usize::try_from(j).ok()?).copied();
+    let jb = (0..=steps)
+        .zip(&grid)
+        .min_by(|a, b| a.1[0].total_cmp(&b.1[0]))?
+        .0;
+    let [chi2, wsum, jj] = at(jb)?;
+    let epoch = (period / STEP_S).round() as i64;
+    let [chi2_0, wsum_0, _] = at(epoch)?;
     let dof = (usable.len() * comps.len()).saturating_sub(1).max(1) as f64;
-    let sigma_s = (chi2 / dof / jj).sqrt();
+    let s2 = chi2 / dof;
+    let sigma_s = (s2 / jj).sqrt();
+    let best = lag_at(jb);
+    // Clear of 0 and of the lags an epoch either side (an alias when the
+    // positions' noise hides the motion): each at least SIGNIFICANT^2
+    // of the fit's scaled chi-square worse.
+    let clear = |j: i64| at(j).is_none_or(|c| c[0] - chi2 >= SIGNIFICANT * SIGNIFICANT * s2);
+    let taken = best > 0.0
+        && best >= SIGNIFICANT * sigma_s
+        && best <= max_lag_s
+        && [epoch, jb - epoch, jb + epoch].into_iter().all(clear);
     let rms = |c: f64, w: f64| (c / w).sqrt();
-    let taken = best > 0.0 && best >= SIGNIFICANT * sigma_s && best <= max_lag_s;
     Some((
         Lag {
             lag_s: best,
@@ -332,5 +356,52 @@ mod tests {
         }
         assert!(velocity_lag(&f, 0.6).is_none());
         assert!(velocity_lag(&[], 0.6).is_none());
+    }
+
+    /// A car at 10 m/s easing its speed by at most 0.1 m/s^2, fixes at 2
+    /// Hz with 1 m of white position noise (Gaussian from a seeded
+    /// generator), the velocity at its tag with 5 cm/s: the noise hides
+    /// the motion and the epochs alias one another.
+    fn noisy_car(seed: u64) -> Vec<GnssRow> {
+        let mut x = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+        let mut gauss = move || {
+            // Sum of 12 uniforms less 6: unit variance.
+            (0..12)
+                .map(|_| {
+                    x = x
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1_442_695_040_888_963_407);
+                    (x >> 11) as f64 / (1u64 << 53) as f64
+                })
+                .sum::<f64>()
+                - 6.0
+        };
+        let m_per_deg = 111_320.0;
+        (0..600)
+            .map(|i| {
+                let t = i as f64 * 0.5;
+                let n = 10.0 * t + 0.1 * 30f64.powi(2) * (1.0 - (t / 30.0).cos());
+                let vn = 10.0 + 0.1 * 30.0 * (t / 30.0).sin();
+                GnssRow {
+                    t_s: t,
+                    lat_deg: 40.0 + (n + gauss()) / m_per_deg,
+                    lon_deg: -105.0 + gauss() / (m_per_deg * 40f64.to_radians().cos()),
+                    height_m: 1580.0 + 2.0 * gauss(),
+                    v_n_mps: [vn + 0.05 * gauss(), 0.05 * gauss(), 0.05 * gauss()],
+                    sigma_h_m: 1.0,
+                    sigma_v_m: 2.0,
+                    sigma_vel_mps: 0.05,
+                    quality: None,
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn metre_fixes_of_a_gentle_drive_take_no_lag() {
+        for seed in 0..8 {
+            let l = velocity_lag(&noisy_car(seed), 0.62).expect("enough fixes");
+            assert_eq!(l.taken_s(), [0.0; 2], "seed {seed}: {l:?}");
+        }
     }
 }
