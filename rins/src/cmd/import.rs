@@ -225,8 +225,15 @@ fn comma(a: &CommaArgs) -> Result<()> {
         .as_ref()
         .map(|c| format!("\n{}", c.text("global_pose")))
         .unwrap_or_default();
+    let gyro = rep.device_gyro_bias_dps.map_or_else(
+        || "\nthe gyro: IMU/gyro as the segment gives it (the device's bias estimate is not in it: not known how much was taken out)".to_string(),
+        |[x, y, z]| format!(
+            "\nthe gyro: the device's calibrated stream (its own bias estimate {x:+.2}, {y:+.2}, {z:+.2} deg/s in b taken out); the filter's prior stays the sensor file's turn-on bias ({:.2} deg/s): the chip is not known, nor how well the device calibrated it (a sensor file stating that narrows it)",
+            input.sensor.gyro.bias.to_degrees()
+        ),
+    );
     let text = format!(
-        "{}, the fixes at their epochs, {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU or the receiver){check}",
+        "{}, the fixes at their epochs, {odo} odometer speeds, truth.csv from global_pose (not independent of the IMU or the receiver){check}{gyro}",
         a.to.counts(&rep)
     );
     a.to.save(&rec, &text, &rep)

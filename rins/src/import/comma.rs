@@ -84,6 +84,19 @@ fn signal(dir: &Path, rel: &str, cols: usize) -> Result<(Vec<f64>, npy::Array)> 
     Ok((t, v))
 }
 
+/// The mean of the device's gyro bias estimate (`IMU/gyro_bias`, the
+/// one `IMU/gyro` has had taken out), turned into `b` by `c_s_b`, deg/s;
+/// `None` when the segment does not keep it (it is only reported).
+fn device_gyro_bias(dir: &Path, c_s_b: &nalgebra::Matrix3<f64>) -> Option<[f64; 3]> {
+    let (_, b) = signal(dir, "processed_log/IMU/gyro_bias", 3).ok()?;
+    let mut sum = Vector3::zeros();
+    for i in 0..b.rows {
+        sum += Vector3::from_column_slice(b.row(i));
+    }
+    let mean = c_s_b * sum / (b.rows.max(1) as f64);
+    (b.rows > 0).then(|| mean.map(f64::to_degrees).into())
+}
+
 /// The boot clock's offset from GPS seconds of week (GPS sow minus boot),
 /// s, and the GPS week: the median of `global_pose`'s pairs.
 fn gps_offset(dir: &Path) -> Result<(f64, f64)> {
@@ -147,6 +160,7 @@ pub fn import(input: &CommaInput) -> Result<(Recording, super::ImportReport)> {
         imu_rate_found_hz: (imu.len() - 1) as f64 / (t_end - t0),
         ..super::ImportReport::default()
     };
+    rep.device_gyro_bias_dps = device_gyro_bias(dir, &c);
     let (gps_minus_boot, week) = gps_offset(dir)?;
     // The fixes' sigmas are set below, once the pose is read.
     rep.t0_gpst = t0 + gps_minus_boot;

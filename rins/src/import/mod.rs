@@ -80,6 +80,12 @@ pub struct ImportReport {
     /// The fixes against the log's reference solution, when it has one
     /// (comma2k19's pose), and the sigmas they were written with.
     pub fixes_against_reference: Option<fixcheck::FixesAgainstReference>,
+    /// The device's own gyro bias estimate that the log's calibrated
+    /// stream has had taken out, deg/s in `b` (its mean over the span),
+    /// when the log keeps it (comma2k19's `IMU/gyro_bias`): the chip's
+    /// turn-on bias is then the device's to remove, and what is left is
+    /// its estimate's error, which no sensor file states.
+    pub device_gyro_bias_dps: Option<[f64; 3]>,
 }
 
 /// The IMU samples' GPST (s) and how the clock was found.
