@@ -431,6 +431,11 @@ pub struct AidedNav<T: Real, const M: usize = N> {
     /// stored state's velocity plus what was added since is the state's
     /// velocity then as the filter now has it.
     dv_sum: Vector3<T>,
+    /// Every position correction fed back so far, summed (m, `n`): as
+    /// `dv_sum`, for a fix handed after other corrections were made
+    /// since its time of validity (the board's fixes wait out a horizon
+    /// longer than their interval).
+    dp_sum: Vector3<T>,
     past_head: usize,
     /// What has been counted.
     pub counts: AidedCounts,
@@ -546,6 +551,8 @@ struct Past<T: Real> {
     w_ib_b: Vector3<T>,
     /// [`AidedNav`]'s sum of velocity corrections when it was stored.
     dv_sum: Vector3<T>,
+    /// Its sum of position corrections then.
+    dp_sum: Vector3<T>,
 }
 
 impl Past<f32> {
@@ -556,6 +563,7 @@ impl Past<f32> {
         c_b_n: crate::real::zeros_f32(),
         w_ib_b: crate::real::zeros_f32(),
         dv_sum: crate::real::zeros_f32(),
+        dp_sum: crate::real::zeros_f32(),
     };
 }
 
@@ -635,6 +643,7 @@ impl AidedNav<f32> {
         refused_run: 0,
         past: [Past::BLANK; HISTORY],
         dv_sum: crate::real::zeros_f32(),
+        dp_sum: crate::real::zeros_f32(),
         past_head: 0,
         counts: AidedCounts {
             steps_refused: 0,
@@ -659,6 +668,7 @@ impl<T: Real> Default for Past<T> {
             c_b_n: Matrix3::identity(),
             w_ib_b: Vector3::zeros(),
             dv_sum: Vector3::zeros(),
+            dp_sum: Vector3::zeros(),
         }
     }
 }
@@ -723,6 +733,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             refused_run: 0,
             past: [Past::default(); HISTORY],
             dv_sum: Vector3::zeros(),
+            dp_sum: Vector3::zeros(),
             past_head: 0,
             counts: AidedCounts::default(),
         })
@@ -771,6 +782,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         self.refused_run = 0;
         self.past.fill(Past::default());
         self.dv_sum = Vector3::zeros();
+        self.dp_sum = Vector3::zeros();
         self.past_head = 0;
         self.counts = AidedCounts::default();
         Ok(())
@@ -955,7 +967,12 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
     /// attitude and velocity as stored (a fix between two samples is
     /// compared with the track where it was taken, not up to half a
     /// sample off: 7 mm at a walk's 1.5 m/s and 100 Hz, a third of an RTK
-    /// fix's sigma).
+    /// fix's sigma). Its position and velocity carry the corrections fed
+    /// back since it was stored (`dp_sum`, `dv_sum`): a fix handed after
+    /// others were used is compared with the state then as the filter now
+    /// has it, and no correction is counted twice (its attitude is as
+    /// stored: a correction since turns the antenna's arm by milliradians,
+    /// millimetres).
     fn past_at(&self, t_us: u64) -> Option<Past<T>> {
         let p = self
             .past
@@ -967,20 +984,21 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         let v_antenna = p.v_n + p.c_b_n * p.w_ib_b.cross(&self.lever_b);
         Some(Past {
             t_us,
-            p_n: p.p_n + v_antenna * dt_s,
+            p_n: p.p_n + v_antenna * dt_s + (self.dp_sum - p.dp_sum),
+            v_n: p.v_n + (self.dv_sum - p.dv_sum),
+            dv_sum: self.dv_sum,
+            dp_sum: self.dp_sum,
             ..p
         })
     }
 
     /// The antenna's velocity a fix's velocity is compared with (m/s, `n`):
-    /// the stored state's at the fix's time less the receiver's velocity
-    /// lag ([`AidedConfig::velocity_lag_s`]), horizontal and vertical each
-    /// at its own, with the velocity corrections made since it was stored
-    /// (a correction in between is not counted twice); `at`'s where the
-    /// lag is 0.
+    /// the stored state's ([`Self::past_at`], the corrections since
+    /// included) at the fix's time less the receiver's velocity lag
+    /// ([`AidedConfig::velocity_lag_s`]), horizontal and vertical each at
+    /// its own; `at`'s where the lag is 0.
     fn fix_velocity_reference(&self, at: &Past<T>) -> Vector3<T> {
         let antenna = |p: &Past<T>| p.v_n + p.c_b_n * p.w_ib_b.cross(&self.lever_b);
-        let since = |p: &Past<T>| antenna(p) + (self.dv_sum - p.dv_sum);
         let back = |lag_s: f64| {
             // Saturating: a negative or NaN lag is 0.
             let us = (lag_s * 1e6) as u64;
@@ -988,7 +1006,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
                 0 => antenna(at),
                 _ => self
                     .past_at(at.t_us.saturating_sub(us))
-                    .map_or_else(|| since(at), |p| since(&p)),
+                    .map_or_else(|| antenna(at), |p| antenna(&p)),
             }
         };
         let [lag_h, lag_v] = self.cfg.velocity_lag_s;
@@ -1105,6 +1123,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             c_b_n,
             w_ib_b,
             dv_sum: self.dv_sum,
+            dp_sum: self.dp_sum,
         };
         if let Some(slot) = self.past.get_mut(self.past_head) {
             *slot = here;
@@ -1190,6 +1209,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             self.counts.corrections_refused = self.counts.corrections_refused.saturating_add(1);
         } else {
             self.dv_sum += dv;
+            self.dp_sum += dp;
         }
     }
 
@@ -1538,6 +1558,7 @@ mod tests {
             c_b_n: Matrix3::identity(),
             w_ib_b: Vector3::zeros(),
             dv_sum: Vector3::zeros(),
+            dp_sum: Vector3::zeros(),
         };
         a.past.fill(Past {
             t_us: u64::MAX,
@@ -1559,6 +1580,18 @@ mod tests {
         let p = a.past_at(14_000).unwrap();
         assert!((p.p_n.y - 0.008).abs() < 1e-6, "{}", p.p_n.y);
         assert!((p.p_n.x - 1.006).abs() < 1e-6, "{}", p.p_n.x);
+        // Corrections fed back since (another fix's update, 0.2 m south
+        // and 0.05 m/s north): the state then as the filter now has it.
+        a.dp_sum = Vector3::new(-0.2, 0.0, 0.0);
+        a.dv_sum = Vector3::new(0.05, 0.0, 0.0);
+        let p = a.past_at(14_000).unwrap();
+        assert!((p.p_n.x - 0.806).abs() < 1e-6, "{}", p.p_n.x);
+        assert!((p.v_n.x - 1.55).abs() < 1e-6, "{}", p.v_n.x);
+        // Stored after them: nothing added.
+        a.past[0].dp_sum = a.dp_sum;
+        a.past[0].dv_sum = a.dv_sum;
+        let p = a.past_at(14_000).unwrap();
+        assert!((p.p_n.x - 1.006).abs() < 1e-6, "{}", p.p_n.x);
     }
 
     #[test]
@@ -1577,6 +1610,7 @@ mod tests {
                 c_b_n: Matrix3::identity(),
                 w_ib_b: Vector3::zeros(),
                 dv_sum: Vector3::zeros(),
+                dp_sum: Vector3::zeros(),
             };
         }
         let at = a.past_at(500_000).unwrap();

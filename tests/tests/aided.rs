@@ -868,3 +868,53 @@ fn an_outage_free_drive_re_initialises_nowhere_and_blames_no_outage() {
         assert!(s.nis_mean_per_dof.is_some(), "{text}");
     }
 }
+
+#[test]
+fn fast_fixes_waiting_out_the_horizon_are_not_counted_twice() {
+    // The board applies a fix 400 ms after its time of validity; a 10 Hz
+    // receiver has four more fixes used in that time. Each fix is compared
+    // with the state stored for its time of validity, which must carry the
+    // corrections fed back since, or those are taken again (a filter that
+    // follows RTK-grade fixes takes nearly all of each). The same 300 s
+    // city drive with 10 Hz fixes of 2 cm: the track's RMS error within
+    // 10 % or 5 cm of the on-time fixes', no re-initialisation. Measured:
+    // 0.28 m against 0.37 m on time; without the corrections since, 61.8 m
+    // and 400 re-initialisations (the check that this test can fail). Both
+    // are far above the host's 1.5 cm on these fixes: after the outage the
+    // board stays 0.4-0.5 m off for the rest of the drive. It sizes the
+    // receiver's correlated error for its own 1.5 m receiver (the host
+    // from the fixes' median sigma), which likely takes that much of the
+    // outage's error as the receiver's: not yet checked.
+    let p = ImuSpec::icm42688();
+    let outage = (120.0, 60.0);
+    let mut c = outages::config_with(DriveKind::City, &p, true, 5, &[outage]);
+    c.duration_s = 300.0;
+    let gnss = &mut c.drive.as_mut().unwrap().gnss;
+    (gnss.rate_hz, gnss.sigma_h_m, gnss.sigma_v_m) = (10.0, 0.02, 0.04);
+    let rec = simulate(&c, &mut |_| {}).unwrap();
+    let bytes = rins::qemu_replay::build(&rec, 16_384).unwrap().bytes;
+    let on_time = TwinOptions {
+        latency_us: Some(0),
+        horizon_us: Some(0),
+        ..TwinOptions::default()
+    };
+    let e0 = track_rms(&twin::run(&bytes, on_time), &rec, outage);
+    for latency in [150_000, 300_000] {
+        let late = TwinOptions {
+            latency_us: Some(latency),
+            ..TwinOptions::default()
+        };
+        let r = twin::run(&bytes, late);
+        let e = track_rms(&r, &rec, outage);
+        let counts = r.board.program.nav.nav.aided().unwrap().counts;
+        println!(
+            "latency {} ms: track RMS {e:.3} m (on time {e0:.3} m), fixes used {}, re-initialisations {}",
+            latency / 1000,
+            counts.fixes_used,
+            counts.reinits
+        );
+        assert_eq!(counts.reinits, 0);
+        assert!(counts.fixes_used > 2000);
+        assert!(e < e0 * 1.1 + 0.05, "{e} vs {e0}");
+    }
+}
