@@ -125,6 +125,21 @@ pub const HISTORY: usize = 64;
 /// this assumption.
 pub const GNSS_CORR_SHARE: f64 = 0.5;
 
+/// A navigator told to size its receiver from its fixes
+/// ([`AidedConfig::receiver_from_fixes`]) does so from this many: their
+/// stated sigmas' medians, one fix that states too little or too much
+/// never deciding it (0.16 s of a 100 Hz receiver... 16 s of a 1 Hz one).
+pub const SIZE_FIXES: usize = 16;
+
+/// The correlated GNSS error's 1-sigma (horizontal, vertical, m) for a
+/// receiver whose fixes state `median_h_m` and `median_v_m` (their
+/// medians): its share [`GNSS_CORR_SHARE`] of their variance, so that an
+/// RTK receiver's centimetres and a phone's metres each get their own.
+pub fn gnss_corr_sigma_m(median_h_m: f64, median_v_m: f64) -> [f64; 2] {
+    let k = libm::sqrt(GNSS_CORR_SHARE);
+    [k * median_h_m, k * median_v_m]
+}
+
 /// A fix's white 1-sigma, m, given its stated 1-sigma `sigma_m` and the
 /// correlated error state's `corr_m`: the rest of the fix's variance,
 /// `sqrt(sigma^2 - corr^2)`, so a fix enters with the variance its
@@ -277,6 +292,15 @@ pub struct AidedConfig {
     /// position's time. Within the [`HISTORY`] (beyond it, the oldest
     /// stored state is taken).
     pub velocity_lag_s: [f64; 2],
+    /// Size the receiver's correlated error (`eskf.gnss_corr_sigma_m`,
+    /// the configuration's until then) from the first [`SIZE_FIXES`]
+    /// fixes' stated sigmas ([`gnss_corr_sigma_m`] of their medians): a
+    /// board knows its receiver only by its fixes. A correlated state
+    /// sized for metres beside centimetre fixes takes an outage's error
+    /// as the receiver's (0.4 m for minutes after a 60 s outage on a
+    /// simulated drive with 2 cm fixes). The host sizes it from all the
+    /// fixes before it starts, and sets this false.
+    pub receiver_from_fixes: bool,
 }
 
 /// The per-sample noise the zero-velocity detector measures against: the
@@ -437,6 +461,10 @@ pub struct AidedNav<T: Real, const M: usize = N> {
     /// longer than their interval).
     dp_sum: Vector3<T>,
     past_head: usize,
+    /// The first fixes' stated sigmas (horizontal, vertical, mm) while
+    /// the receiver is sized from them, and how many.
+    fix_sigmas: [[u32; 2]; SIZE_FIXES],
+    fix_sigmas_n: usize,
     /// What has been counted.
     pub counts: AidedCounts,
 }
@@ -603,6 +631,7 @@ impl AidedConfig {
             sigma_table_rate_radps: 0.0,
         },
         velocity_lag_s: [0.0; 2],
+        receiver_from_fixes: false,
     };
 }
 
@@ -645,6 +674,8 @@ impl AidedNav<f32> {
         dv_sum: crate::real::zeros_f32(),
         dp_sum: crate::real::zeros_f32(),
         past_head: 0,
+        fix_sigmas: [[0; 2]; SIZE_FIXES],
+        fix_sigmas_n: 0,
         counts: AidedCounts {
             steps_refused: 0,
             zupts: 0,
@@ -735,6 +766,8 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             dv_sum: Vector3::zeros(),
             dp_sum: Vector3::zeros(),
             past_head: 0,
+            fix_sigmas: [[0; 2]; SIZE_FIXES],
+            fix_sigmas_n: 0,
             counts: AidedCounts::default(),
         })
     }
@@ -784,6 +817,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         self.dv_sum = Vector3::zeros();
         self.dp_sum = Vector3::zeros();
         self.past_head = 0;
+        self.fix_sigmas_n = 0;
         self.counts = AidedCounts::default();
         Ok(())
     }
@@ -1261,6 +1295,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         at: &Past<T>,
         mut ws: Option<&mut Workspace<T, M>>,
     ) -> (T, u8, bool) {
+        self.size_receiver(fix);
         let l_n = at.c_b_n * self.lever_b;
         let zp = self.fix_position_n(fix) - (at.p_n + l_n);
         let v_ant = self.fix_velocity_reference(at);
@@ -1333,6 +1368,36 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             self.refused_run = 0;
         }
         (nis, used, horizontal)
+    }
+
+    /// Keeps `fix`'s stated sigmas while the receiver is sized from its
+    /// fixes ([`AidedConfig::receiver_from_fixes`]); at the
+    /// [`SIZE_FIXES`]-th, sizes the correlated error from their medians
+    /// ([`Eskf::size_gnss_corr`]).
+    fn size_receiver(&mut self, fix: &GnssFix) {
+        if !self.cfg.receiver_from_fixes || self.fix_sigmas_n >= SIZE_FIXES {
+            return;
+        }
+        if let Some(slot) = self.fix_sigmas.get_mut(self.fix_sigmas_n) {
+            *slot = [fix.sigma_h_mm, fix.sigma_v_mm];
+        }
+        self.fix_sigmas_n += 1;
+        if self.fix_sigmas_n < SIZE_FIXES {
+            return;
+        }
+        let mut h = self.fix_sigmas.map(|x| x[0]);
+        let mut v = self.fix_sigmas.map(|x| x[1]);
+        h.sort_unstable();
+        v.sort_unstable();
+        // The upper middle of an even count, as the zero-velocity
+        // detector's median.
+        let mid =
+            |w: &[u32; SIZE_FIXES]| f64::from(w.get(SIZE_FIXES / 2).copied().unwrap_or(0)) * 1e-3;
+        let (mh, mv) = (mid(&h), mid(&v));
+        // A receiver that states no error: the configuration's kept.
+        if mh > 0.0 && mv > 0.0 {
+            self.kf.size_gnss_corr(gnss_corr_sigma_m(mh, mv));
+        }
     }
 
     /// The velocity the last two refused fixes' positions imply (m/s, `n`)

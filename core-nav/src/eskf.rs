@@ -1012,6 +1012,42 @@ impl<T: Real, const M: usize> Eskf<T, M> {
         self.update_rows(rows, z, sigma, ws)
     }
 
+    /// Sizes the receiver's correlated position error afresh (`sigma_m`:
+    /// horizontal, vertical 1-sigma, m; a receiver known only once its
+    /// fixes arrive): the configuration's, whence its process noise and
+    /// a fix's white share, and its states' rows and columns scaled, with
+    /// their estimate, so that no variance is above the new prior (a
+    /// diagonal scaling keeps the covariance positive semi-definite and
+    /// the correlations as they were). A variance already below it stays.
+    pub fn size_gnss_corr(&mut self, sigma_m: [f64; 2]) {
+        self.cfg.gnss_corr_sigma_m = sigma_m;
+        let [gh, gv] = sigma_m;
+        for (k, sigma) in [gh, gh, gv].into_iter().enumerate() {
+            let i = I_GP + k;
+            let var = self.p.get((i, i)).copied().unwrap_or(T::zero());
+            let target = T::lit(sigma * sigma);
+            // Not above it (or NaN): kept.
+            if var.partial_cmp(&target) != Some(core::cmp::Ordering::Greater) {
+                continue;
+            }
+            let f = (target / var).sqrt_cr();
+            for j in 0..M {
+                let g = if j == i { f * f } else { f };
+                if let Some(x) = self.p.get_mut((i, j)) {
+                    *x *= g;
+                }
+                if j != i {
+                    if let Some(x) = self.p.get_mut((j, i)) {
+                        *x *= f;
+                    }
+                }
+            }
+            if let Some(b) = self.gnss_bias.get_mut(k) {
+                *b *= f;
+            }
+        }
+    }
+
     /// Re-initialises position and velocity on the NED axes `axes` says
     /// from a measurement the gate keeps refusing while it agrees with
     /// itself (a filter lost after an outage; `[false, false, true]`: the

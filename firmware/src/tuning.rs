@@ -39,6 +39,10 @@ pub const ICM42688_FILTER: AidedConfig = AidedConfig {
     // receiver whose velocity lags its positions (RTKLIB's) is corrected
     // by the host's `navigate` only; the link carries one time per fix.
     velocity_lag_s: [0.0; 2],
+    // The receiver sized from its first fixes (the board is not told
+    // which one it has): `gnss_corr_sigma_m` below is a 1.5 m receiver's
+    // until then.
+    receiver_from_fixes: true,
 };
 
 /// The board's tuning: the tick's and navigation's defaults (1 kHz rate

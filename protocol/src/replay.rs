@@ -174,6 +174,8 @@ impl Header {
                 },
                 // The board takes no velocity lag (tuning.rs).
                 velocity_lag_s: [0.0; 2],
+                // The board sizes its receiver from its fixes (tuning.rs).
+                receiver_from_fixes: true,
             };
             Some((g(0)?, cfg))
         } else {

@@ -4,7 +4,7 @@
 //! use.
 
 use crate::spec::{TempSpec, TriadSpec, G0};
-use core_nav::aided::{ZuptNoise, GNSS_CORR_SHARE};
+use core_nav::aided::{gnss_corr_sigma_m, ZuptNoise};
 use core_nav::eskf::{EskfConfig, WarmupDrift};
 
 /// The filter's noise model from a sensor profile (its datasheet
@@ -63,10 +63,9 @@ pub fn filter_config(
             accel_bias: a.temp_bias * warm.warmup_c,
             gyro_scale: g.temp_scale * warm.warmup_c,
         },
-        gnss_corr_sigma_m: [
-            libm::sqrt(GNSS_CORR_SHARE) * 1.5,
-            libm::sqrt(GNSS_CORR_SHARE) * 3.0,
-        ],
+        // A 1.5 m (3 m vertical) automotive receiver's, hal-sim's default,
+        // until a navigator sizes it from its fixes.
+        gnss_corr_sigma_m: gnss_corr_sigma_m(1.5, 3.0),
         gnss_corr_tau_s: 60.0,
     }
 }

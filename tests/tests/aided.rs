@@ -877,14 +877,15 @@ fn fast_fixes_waiting_out_the_horizon_are_not_counted_twice() {
     // corrections fed back since, or those are taken again (a filter that
     // follows RTK-grade fixes takes nearly all of each). The same 300 s
     // city drive with 10 Hz fixes of 2 cm: the track's RMS error within
-    // 10 % or 5 cm of the on-time fixes', no re-initialisation. Measured:
-    // 0.28 m against 0.37 m on time; without the corrections since, 61.8 m
-    // and 400 re-initialisations (the check that this test can fail). Both
-    // are far above the host's 1.5 cm on these fixes: after the outage the
-    // board stays 0.4-0.5 m off for the rest of the drive. It sizes the
-    // receiver's correlated error for its own 1.5 m receiver (the host
-    // from the fixes' median sigma), which likely takes that much of the
-    // outage's error as the receiver's: not yet checked.
+    // 10 % or 5 cm of the on-time fixes', at most the one
+    // re-initialisation of the outage's end. Measured: 0.061 m against
+    // 0.040 m on time (the host: 0.015 m); without the corrections since,
+    // 61.8 m and 400 re-initialisations (the check that this test can
+    // fail). Before the board sized its receiver from its fixes
+    // (`AidedConfig::receiver_from_fixes`) both were 0.28-0.37 m: a
+    // correlated error sized for its 1.5 m receiver kept 0.4-0.5 m of the
+    // outage's error for the rest of the drive. Not understood: the late
+    // fixes' run refutes 1,900 still windows by its velocity, on time 40.
     let p = ImuSpec::icm42688();
     let outage = (120.0, 60.0);
     let mut c = outages::config_with(DriveKind::City, &p, true, 5, &[outage]);
@@ -899,6 +900,8 @@ fn fast_fixes_waiting_out_the_horizon_are_not_counted_twice() {
         ..TwinOptions::default()
     };
     let e0 = track_rms(&twin::run(&bytes, on_time), &rec, outage);
+    // The receiver sized from its fixes: 0.37 m with its 1.5 m sizing.
+    assert!(e0 < 0.1, "{e0}");
     for latency in [150_000, 300_000] {
         let late = TwinOptions {
             latency_us: Some(latency),
@@ -913,7 +916,9 @@ fn fast_fixes_waiting_out_the_horizon_are_not_counted_twice() {
             counts.fixes_used,
             counts.reinits
         );
-        assert_eq!(counts.reinits, 0);
+        // The outage's end: 2.6 m off against 2 cm fixes, one
+        // re-initialisation (on time the gate took them).
+        assert!(counts.reinits <= 1, "{counts:?}");
         assert!(counts.fixes_used > 2000);
         assert!(e < e0 * 1.1 + 0.05, "{e} vs {e0}");
     }

@@ -541,3 +541,49 @@ fn a_host_state_started_as_a_function_of_the_others_is_their_combination() {
     assert!(f.set_aux(1, 0.1, 0.0).is_err());
     assert!(f.set_aux(0, f64::NAN, 0.0).is_err());
 }
+
+#[test]
+fn sizing_the_receiver_afresh_scales_its_states_as_a_change_of_unit() {
+    // `size_gnss_corr` against `S P S` with the diagonal `S` computed here:
+    // each correlated-error state's variance brought down to the new prior
+    // (never up), its correlations kept, the covariance still positive
+    // semi-definite, its estimate scaled with it.
+    let mut f = warmed();
+    f.update_position(
+        &Vector3::new(0.4, -0.3, 0.8),
+        &Vector3::zeros(),
+        &Vector3::new(0.02, 0.02, 0.04),
+    )
+    .unwrap();
+    let _ = f.take_correction();
+    let (p0, b0) = (f.p, f.gnss_bias);
+    assert!(b0.norm() > 0.01, "{b0}");
+    let sigma = [0.014, 0.028];
+    f.size_gnss_corr(sigma);
+    assert_eq!(f.config().gnss_corr_sigma_m, sigma);
+    let mut s = DVector::from_element(N, 1.0);
+    for (k, sg) in [sigma[0], sigma[0], sigma[1]].into_iter().enumerate() {
+        let var = p0[(I_GP + k, I_GP + k)];
+        assert!(var > sg * sg, "the prior was the larger: {var}");
+        s[I_GP + k] = sg / var.sqrt();
+    }
+    let want = DMatrix::from_fn(N, N, |r, c| s[r] * p0[(r, c)] * s[c]);
+    let got = DMatrix::from_fn(N, N, |r, c| f.p[(r, c)]);
+    assert!((&got - &want).amax() < 1e-15, "{}", (&got - &want).amax());
+    let corr = |p: &DMatrix<f64>, i: usize, j: usize| p[(i, j)] / (p[(i, i)] * p[(j, j)]).sqrt();
+    for j in [I_P, I_P + 1, I_P + 2] {
+        assert!(
+            (corr(&got, I_GP, j) - corr(&DMatrix::from_fn(N, N, |r, c| p0[(r, c)]), I_GP, j)).abs()
+                < 1e-12
+        );
+    }
+    let min_eig = got.symmetric_eigenvalues().min();
+    assert!(min_eig > -1e-12, "{min_eig}");
+    for k in 0..3 {
+        assert!((f.gnss_bias[k] - s[I_GP + k] * b0[k]).abs() < 1e-15);
+    }
+    // A larger prior changes nothing but the configuration.
+    let p1 = f.p;
+    f.size_gnss_corr([5.0, 10.0]);
+    assert_eq!(f.p, p1);
+}

@@ -295,7 +295,7 @@ pub fn gnss_corr_sigma(fixes: &[GnssRow]) -> [f64; 2] {
     };
     let h = median(fixes.iter().map(|f| f.sigma_h_m).collect());
     let v = median(fixes.iter().map(|f| f.sigma_v_m).collect());
-    [GNSS_CORR_SHARE.sqrt() * h, GNSS_CORR_SHARE.sqrt() * v]
+    core_nav::aided::gnss_corr_sigma_m(h, v)
 }
 
 /// The sensor profile for the filter: `name` (one of hal-sim's profiles)
@@ -421,6 +421,9 @@ pub fn aided_config(
         zupt: opt.zupt,
         zupt_noise,
         velocity_lag_s: [0.0; 2],
+        // As the board: `navigate` sizes it from all the fixes instead
+        // (`pipeline::start`).
+        receiver_from_fixes: true,
     }
 }
 

@@ -151,6 +151,7 @@ pub fn start<'a, T: Real>(
     cfg.zupt &= moving.is_none();
     cfg.initial = initial;
     cfg.eskf.gnss_corr_sigma_m = gnss_corr_sigma(&input.fixes);
+    cfg.receiver_from_fixes = false;
     // The navigator looks back at most its stored states, less the two a
     // fix between samples may need.
     let stored_s = (core_nav::aided::HISTORY - 2) as f64 / m.imu_rate_hz;
