@@ -212,6 +212,11 @@ const NAVIGATE: Walk = Walk {
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--estimate-lever-arm", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-lever-arm", "--out", "{out}/n"], NAV),
         changes("--learn-noise", &["{fix}/walkrec", "--gnss", "--learn-noise", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
         refused("--learn-noise", &["{rec}", "--learn-noise", "--out", "{out}/n"], &["--gnss"]),
+        // The walk's heights refute the file's vertical noise: learnt and
+        // added unless told to keep the file's.
+        changes("--vertical-noise", &["{fix}/walkrec", "--gnss", "--vertical-noise", "file", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),
+        refused("--vertical-noise", &["{rec}", "--vertical-noise", "file", "--out", "{out}/n"], &["--gnss"]),
+        refused("--vertical-noise", &["{fix}/walkrec", "--gnss", "--vertical-noise", "sometimes", "--out", "{out}/n"], &["sometimes"]),
         changes("--vehicle", &["{drive}", "--gnss", "--vehicle", "car", "--out", "{out}/n"], &["{drive}", "--gnss", "--out", "{out}/n"], NAV),
         refused("--vehicle", &["{drive}", "--gnss", "--vehicle", "boat", "--out", "{out}/n"], &["boat"]),
         refused("--vehicle", &["{drive}", "--vehicle", "car", "--out", "{out}/n"], &["--gnss"]),

@@ -522,9 +522,18 @@ fn a_height_lost_in_an_outage_restarts_the_vertical_channel_alone() {
     // re-initialisation, 1 of the height (1,768 m off, 1.4 m 10 s after);
     // the horizontal error 10 s after the outage 1.71 m, the clean run's
     // 1.74 m.
+    // With the sensor file's vertical noise: the passes before the run
+    // would take the tampering's kilometre for a ride's vertical noise
+    // and the heights back without a restart (measured: 990 m off at the
+    // end, 1.39 m 10 s after, no restart), and the restart is what is
+    // tested here.
     let (p, outage, rec, clean) = tampered_outage(2);
     assert_eq!((clean.reinits, clean.height_reinits), (0, 0));
-    let run = aided::navigate(&rec, &opts(&p), &mut |_| {}).unwrap();
+    let o = AidedOptions {
+        vertical_learn: false,
+        ..opts(&p)
+    };
+    let run = aided::navigate(&rec, &o, &mut |_| {}).unwrap();
     let end = outage.0 + outage.1;
     let height_off = |run: &aided::AidedRun, t_s: f64| {
         let truth = rec.moving.as_ref().unwrap().truth.as_ref().unwrap();

@@ -324,6 +324,65 @@ fn the_heights_share_inside_3_sigma_is_the_trajectorys_own() {
 }
 
 #[test]
+fn the_walk_s_height_holds_its_3_sigma_over_shifted_outages_with_the_ride_s_vertical_noise() {
+    // Single 10 s outages started every 9 s from 14 s to 104 s, each a
+    // run of its own, with the arm the fixes give (found once, as
+    // `navigate` takes it): the height at each end against the withheld
+    // fixes. Measured (the book's, Aided navigation: every 3 s, 31
+    // runs): with the sensor file's noise alone the ends are 9.1 sigmas
+    // off (rms) and 8 of 31 outages are 70 % inside 3 sigma; with the
+    // ride's vertical noise learnt, 1.1 sigmas and 31 of 31.
+    let (rec, _) = rtklib(&input()).unwrap();
+    let arm = rins::aided::lever::estimate(&rec, &opts(vec![]), &mut |_| {}).unwrap();
+    let with = |cut: (f64, f64), learn: bool| {
+        let o = AidedOptions {
+            lever_b_m: Some(arm.b_m),
+            vertical_learn: learn,
+            ..opts(vec![cut])
+        };
+        let run = navigate(&rec, &o, &mut |_| {}).unwrap();
+        let s = summary(&rec, &run);
+        let g = *s.outages.first().unwrap();
+        (
+            g.end_height_error_m.unwrap() / g.end_height_sigma_m.unwrap(),
+            g.height_within_3_sigma.unwrap(),
+            run.vertical,
+        )
+    };
+    let rms = |x: &[f64]| (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+    let (mut z_file, mut z_ride, mut qs) = (vec![], vec![], vec![]);
+    for k in 0..11 {
+        let cut = (14.0 + 9.0 * f64::from(k), 10.0);
+        let (zf, _, _) = with(cut, false);
+        let (zr, inside, v) = with(cut, true);
+        let v = v.unwrap();
+        println!(
+            "{cut:?}: {zf:.2} -> {zr:.2} sigmas, {inside:.2} inside; {}",
+            v.text()
+        );
+        assert!(v.used, "{v:?}");
+        assert!(inside >= 0.7, "{cut:?}: {inside}");
+        z_file.push(zf);
+        z_ride.push(zr);
+        qs.push((v.q_mps_rts.unwrap(), v.q_sigma_mps_rts.unwrap()));
+    }
+    // The same walk with its outage elsewhere is the same ride: every
+    // run's density within its own sigma of the others' mean.
+    let mean = qs.iter().map(|q| q.0).sum::<f64>() / qs.len() as f64;
+    for (q, sd) in &qs {
+        assert!((q - mean).abs() <= *sd, "{q} +- {sd} vs {mean}");
+    }
+    let (f, r) = (rms(&z_file), rms(&z_ride));
+    println!("rms sigmas at the ends: file {f:.2}, ride {r:.2}");
+    // The file's noise is refuted here as in the book's sweep; with the
+    // ride's, the ends' spread is their sigma's within what 11 returns
+    // tell (a chi-square of 11 degrees: 0.6-1.4 at 95 %; the outages share
+    // parts of the walk, so taken wider).
+    assert!(f > 4.0, "{f}");
+    assert!((0.5..=1.6).contains(&r), "{r}");
+}
+
+#[test]
 fn fixes_stamped_on_a_shifted_clock_with_the_offset_given_measure_the_same() {
     // Metamorphic: the receiver's stamps moved 0.245 s earlier and the
     // filter told so (`--time-offset-s 0.245`) is the same walk: the
@@ -456,24 +515,29 @@ fn the_walk_with_its_fixes_stamped_0_25_s_early_points_at_its_clocks_and_finds_0
 #[test]
 fn the_walk_s_fixes_refute_its_author_s_arm_and_a_user_without_a_flag_gets_theirs() {
     // The walk's 10 s outage set with the author's antenna arm, as a
-    // user without a flag runs it: a symptom (with the fixes' velocity
-    // taken at its own time, the NIS per component is 1.2, under the
-    // hint's 1.5, but a fix taken 0.5 s after the 70 s outage's end and
-    // the gate's refusals after it re-initialise the run, its 2 m error
-    // counted as "with fixes arriving"; before, the NIS read 1.84); the
-    // clocks are cleared (+0.013 s, within a grid step of the run's 0);
-    // the arm the fixes give is recommended, and `navigate` navigates
-    // with it: each outage's mean end error against the receiver's
-    // withheld fixes drops (the peer table's rows, through the CLI,
-    // 2.22 -> 0.34 m).
+    // user without a flag runs it. With the height's ride noise learnt
+    // the run shows no symptom any more (measured: NIS per component
+    // 0.86, no re-initialisation, one gate refusal; with the file's
+    // vertical noise a fix taken 0.5 s after the 70 s outage's end and
+    // the gate's refusals after it re-initialised the run); where one
+    // shows, the clocks are cleared. RTK fixes resolve the arm, so
+    // `navigate` checks it on every run (`resolves_arm`): the arm the
+    // fixes give is recommended, and `navigate` navigates with it: each
+    // outage's mean end error against the receiver's withheld fixes
+    // drops (2.24 -> 0.38 m here; the peer table's rows, through the
+    // CLI, 2.25 -> 0.39 m).
     let (rec, _) = rtklib(&input()).unwrap();
     let opt = opts(vec![(20.0, 10.0), (45.0, 10.0), (70.0, 10.0), (95.0, 10.0)]);
     let run = navigate(&rec, &opt, &mut |_| {}).unwrap();
     let s = summary(&rec, &run);
-    let h = rins::aided::offset::hint(&rec, &opt, &s, &run, &mut |_| {})
-        .expect("the fixes' NIS points at the run");
-    print!("{}", h.text());
-    assert!(!h.recommended, "{h:?}");
+    println!(
+        "NIS per component {:?}, re-initialisations {}, gate rejections {}",
+        s.nis_mean_per_dof, run.reinits, run.rejected
+    );
+    if let Some(h) = rins::aided::offset::hint(&rec, &opt, &s, &run, &mut |_| {}) {
+        print!("{}", h.text());
+        assert!(!h.recommended, "{h:?}");
+    }
     let l = rins::aided::lever::LeverHint::find(&rec, &opt, &mut |_| {});
     print!("{}", l.text());
     assert!(l.recommended, "{l:?}");

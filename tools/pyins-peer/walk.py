@@ -160,7 +160,28 @@ def rins_models(path, run_s):
         scale_misal_sd=scale_misal(n["accel_scale"], n["accel_misalignment_rad"]))
     print(f"pyins: rins's process noise ({path}): gyro bias walk "
           f"{gyro.bias_walk if hasattr(gyro, 'bias_walk') else 'set'}")
+    with open(path) as f:
+        v = json.load(f).get("vertical_noise") or {}
+    if v.get("used"):
+        add_vertical_noise(v["q_mps_rts"] ** 2)
     return gyro, accel
+
+
+def add_vertical_noise(q2):
+    """rins's vertical ride noise (`vertical_noise` in its --json: a
+    vertical velocity random walk of density q2, (m/s)^2/s, learnt from
+    the fixes) added to pyins's vertical velocity error (its DV3) at each
+    propagation, as rins adds it to its own."""
+    base = filters._compute_error_propagation_matrices
+
+    def with_vertical(pva, gyro, accel, time_delta, error_model, gyro_model, accel_model):
+        Phi, Qd = base(pva, gyro, accel, time_delta, error_model, gyro_model, accel_model)
+        Qd = np.array(Qd, copy=True)
+        Qd[error_model.DV3, error_model.DV3] += q2 * time_delta
+        return Phi, Qd
+
+    filters._compute_error_propagation_matrices = with_vertical
+    print(f"pyins: rins's vertical ride noise {math.sqrt(q2):.4f} m/s/sqrt(s) added")
 
 
 def main():
@@ -175,7 +196,8 @@ def main():
                          "fix_velocity_lag, the lags it took)")
     ap.add_argument("--noise-from", default=None,
                     help="rins navigate --json output: pyins gets the process "
-                         "noise rins's filter started from (every term)")
+                         "noise rins's filter started from (every term) and "
+                         "the vertical ride noise it learnt")
     a = ap.parse_args()
     lever = None
     if a.lever_arm is not None:

@@ -107,6 +107,8 @@ pub fn estimate(
     lever: &LeverEstimate,
     progress: &mut dyn FnMut(f64),
 ) -> Result<JointEstimate> {
+    let trials = opt.for_trials();
+    let opt = &trials;
     let axes: Vec<usize> = (0..3).filter(|i| lever.sigma_m[*i].is_some()).collect();
     let mut x = vec![offset.offset_s];
     x.extend(axes.iter().map(|i| lever.b_m[*i]));

@@ -67,6 +67,8 @@ pub fn estimate(
     opt: &AidedOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<LeverEstimate> {
+    let trials = opt.for_trials();
+    let opt = &trials;
     let given = super::lever_b_m(rec, opt);
     let coarse = (SPAN_M / COARSE_M).round() as i64;
     let runs = 3 * (2 * coarse + 1) + 6 * 11 + 21;

@@ -32,6 +32,7 @@ mod plots;
 pub mod span;
 mod summary;
 pub mod vehicle;
+pub mod vertical;
 
 /// The host's error state: the board's `N` and three of its own (a car's
 /// mounting yaw and pitch, its odometer's scale: [`vehicle`]). A run that
@@ -77,6 +78,9 @@ pub struct AidedOptions {
     /// Learn the ride's process noise from the fixes ([`learn`]), never
     /// below the sensor file's (off unless asked: `--learn-noise`).
     pub learn_noise: bool,
+    /// Learn the ride's vertical noise from the fixes in a first pass and
+    /// add it ([`vertical`]; on unless `--vertical-noise file`).
+    pub vertical_learn: bool,
 }
 
 /// The innovation gate the CLI and the tools use unless told, sigmas.
@@ -101,6 +105,21 @@ impl AidedOptions {
             vehicle: None,
             lever_b_m: None,
             learn_noise: false,
+            vertical_learn: true,
+        }
+    }
+}
+
+impl AidedOptions {
+    /// What the estimators (the arm's, the time offset's, the two's) run
+    /// each of their many trial runs with: `self` without the vertical
+    /// ride noise's passes ([`vertical`]), which would cost several runs
+    /// each; they compare the fixes' fit between trials, which the
+    /// height's added noise would not order differently.
+    pub fn for_trials(&self) -> Self {
+        Self {
+            vertical_learn: false,
+            ..self.clone()
         }
     }
 }
@@ -242,6 +261,8 @@ pub struct AidedRun {
     pub time_offset_s: f64,
     /// The ride's noise learnt from the fixes (`None`: not learnt).
     pub learnt: Option<learn::LearnReport>,
+    /// The ride's vertical noise ([`vertical`]; `None`: not asked).
+    pub vertical: Option<vertical::VerticalReport>,
     /// The process noise the filter started from (the sensor file's).
     pub process_noise: learn::ProcessNoise,
     /// When the fixes' velocity was valid, found from their positions

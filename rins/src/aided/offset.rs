@@ -38,6 +38,8 @@ pub fn estimate(
     step_s: f64,
     progress: &mut dyn FnMut(f64),
 ) -> Result<OffsetEstimate> {
+    let trials = opt.for_trials();
+    let opt = &trials;
     let n = (span_s / step_s).round() as i64;
     let mut grid = vec![];
     for k in -n..=n {
@@ -77,7 +79,7 @@ pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<(f64, f64)> {
         gate_sigma: UNGATED,
         gnss_velocity: false,
         zupt: false,
-        ..opt.clone()
+        ..opt.for_trials()
     };
     let run = navigate(rec, &o, &mut |_| {})?;
     let used: Vec<&(f64, f64, u8)> = run.nis.iter().filter(|x| x.2 > 0).collect();

@@ -468,8 +468,36 @@ pub fn run<T: Real>(
     opt: &AidedOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<AidedRun> {
+    // The vertical ride noise from a first pass (its own module), then
+    // the run with it.
+    let (vertical, share) = if opt.vertical_learn {
+        let share = super::vertical::PASSES as f64 / (super::vertical::PASSES as f64 + 1.0);
+        let v = super::vertical::learn::<T>(rec, opt, &mut |f| progress(f * share))?;
+        (Some(v), share)
+    } else {
+        (None, 0.0)
+    };
+    let progress = &mut |f: f64| progress(share + f * (1.0 - share));
+    run_with::<T>(rec, opt, progress, |_| match vertical {
+        Some(v) => vec![Box::new(super::vertical::VerticalNoise::new(v))],
+        None => vec![],
+    })
+}
+
+/// [`run`] with the aids `opt` asks for and then `extra`'s (made from
+/// the navigator at the start).
+///
+/// # Errors
+/// What [`start`] refuses.
+pub fn run_with<T: Real>(
+    rec: &Recording,
+    opt: &AidedOptions,
+    progress: &mut dyn FnMut(f64),
+    extra: impl FnOnce(&HostNav<T>) -> Vec<Box<dyn Aid<T>>>,
+) -> Result<AidedRun> {
     let (mut an, mut run, input) = start::<T>(rec, opt)?;
     let mut aids = aids(rec, opt, &an);
+    aids.extend(extra(&an));
     let earth = *an.nav().earth();
     let tangent = earth.origin.tangent();
     let mut feed = FixFeed::new();

@@ -79,6 +79,9 @@ pub struct AidedSummary {
     /// The ride's noise learnt from the fixes (`None`: not asked,
     /// `--learn-noise`).
     pub learnt_noise: Option<super::learn::LearnReport>,
+    /// The ride's vertical noise from the first pass (`None`:
+    /// `--vertical-noise file`).
+    pub vertical_noise: Option<super::vertical::VerticalReport>,
     /// The process noise the filter started from (the sensor file's):
     /// what a peer is given to compare equals.
     pub process_noise: super::learn::ProcessNoise,
@@ -231,6 +234,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         zupt_spans: zupt_spans(run),
         vehicle: run.vehicle,
         learnt_noise: run.learnt.clone(),
+        vertical_noise: run.vertical.clone(),
         process_noise: run.process_noise,
         moving_start: run.moving_start,
         start: run.start,
@@ -590,6 +594,9 @@ impl AidedSummary {
         }
         if let Some(l) = &self.learnt_noise {
             o += &learnt_text(l);
+        }
+        if let Some(v) = &self.vertical_noise {
+            o += &v.text();
         }
         if !self.zupt_spans.is_empty() {
             let shown: Vec<String> = self

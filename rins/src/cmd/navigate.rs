@@ -63,6 +63,12 @@ pub struct Args {
     /// never below the sensor file's
     #[arg(long, requires = "gnss")]
     pub learn_noise: bool,
+    /// The height's process noise (with --gnss): `learn` adds the ride's
+    /// vertical velocity random walk that 10-s shadows of the filter show
+    /// against the fixes in a first pass, where significant; `file` keeps
+    /// the sensor file's alone
+    #[arg(long, value_parser = ["learn", "file"], default_value = "learn")]
+    pub vertical_noise: String,
     /// The sensor profile the filter's noise model comes from (default:
     /// the one named by the recording's `[imu] model`).
     /// A shipped profile's name or a sensor file (`rins-sensor/2`): its
@@ -152,6 +158,9 @@ fn check_span(a: &Args, rec: &recording::Recording) -> Result<()> {
                 a.start_s.max(t0)
             );
         }
+    }
+    if !a.gnss && a.vertical_noise != "learn" {
+        bail!("--vertical-noise needs --gnss (an unaided run has no filter to add it to)");
     }
     for o in &a.gnss_outages {
         let (start, len) = hal_sim::drive::parse_outage(o).map_err(|e| anyhow::anyhow!(e))?;
@@ -489,6 +498,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             .and_then(rins::aided::vehicle::Vehicle::parse),
         lever_b_m: None,
         learn_noise: a.learn_noise,
+        vertical_learn: a.vertical_noise == "learn",
     };
     let mut opt = opt;
     let lever = match a.estimate_lever_arm {
