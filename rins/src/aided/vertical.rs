@@ -6,16 +6,16 @@
 //! cancel, and an outage starts from that balance. The vertical channel
 //! has none but the accelerometer's bias, whose model (a sensor file's
 //! instability and warm-up) is far slower than what a hand, a road or a
-//! roof does to the vertical force. On the real walk the heights at the
-//! ends of 10 s outages were 0.9-1.8 m off against a stated 0.11-0.22 m,
-//! the sign changing from one start to the next, and both an independent
-//! filter and rins drifted alike: an error of the ride, not of the
-//! integration.
+//! roof does to the vertical force. On the real walk (the book: Aided
+//! navigation, the height in the outages) the heights at the ends of
+//! outages were many times their stated sigma off, the sign changing
+//! from one start to the next, and an independent filter drifted alike:
+//! an error of the ride, not of the integration.
 //!
 //! The model is a vertical velocity random walk of the ride, `q` (m/s per
 //! sqrt(s)), added to the filter's vertical velocity error: over an
 //! outage of `T` s it adds `q^2 T^3 / 3` to the height's variance (the
-//! walk's 10 s and 20 s outages grew as `T^1.6`). `q^2` is found by
+//! walk's heights grew about so from 10 s to 20 s). `q^2` is found by
 //! covariance matching (Mehra 1972) over shadows: every
 //! [`SPACING_S`] while fixes arrive a copy of the navigator goes on
 //! without fixes for [`HORIZON_S`]; at its end its height less the aided
