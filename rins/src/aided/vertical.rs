@@ -268,9 +268,7 @@ pub fn score_sigmas(returns: &[Return]) -> Option<f64> {
 /// model they were predicted with.
 pub fn learnt(returns: &[Return], q2_applied: f64, file_vrw: f64) -> VerticalReport {
     let median = |f: &dyn Fn(&Return) -> f64| {
-        let mut x: Vec<f64> = returns.iter().map(f).collect();
-        x.sort_by(f64::total_cmp);
-        x.get(x.len() / 2).copied().unwrap_or(f64::NAN)
+        core_nav::stats::median(&mut returns.iter().map(f).collect::<Vec<f64>>())
     };
     let mut r = VerticalReport {
         returns: returns.len() as u32,
