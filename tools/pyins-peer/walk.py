@@ -233,10 +233,21 @@ def main():
             meas.append(kind(part[["lat", "lon", "alt"]], sd, imu_to_antenna_b=lever))
     if "vn_mps" in lla:
         v = lla.rename(columns={"vn_mps": "VN", "ve_mps": "VE", "vd_mps": "VD"})[["VN", "VE", "VD"]]
-        # Each part at the time it was valid: its tag less the lag.
+        # Each part at the time it was valid: its tag less the lag. A
+        # velocity valid inside an outage is not taken there: its fix is
+        # tagged after the outage's end, and a filter running forward has
+        # it only then (rins takes it at its tag, compared with the state
+        # at its lag); pyins applies a measurement at its own time, so it
+        # is left out (before, the fix tagged at an outage's end put its
+        # vertical velocity 0.29 s inside it, ahead of the last withheld
+        # fix the height's end is measured at).
         for kind, lag in ((HorizontalVelocity, lag_h), (VerticalVelocity, lag_v)):
             part = v.copy()
             part.index = part.index - lag
+            valid_inside = np.zeros(len(part), dtype=bool)
+            for s, l in outages:
+                valid_inside |= (part.index >= s) & (part.index < s + l)
+            part = part[~valid_inside]
             part = part[(part.index > grid[0]) & (part.index < grid[-1])]
             part = part[~np.isin(part.index.values, grid)]
             meas.append(kind(part, 0.05, imu_to_antenna_b=lever))
