@@ -29,13 +29,14 @@ pub struct GnssRow {
     pub lon_deg: f64,
     /// Height above the ellipsoid, m.
     pub height_m: f64,
-    /// Velocity north, east, down, m/s (NaN in a position-only fix).
+    /// Velocity north, east, down, m/s (NaN when the file has no velocity
+    /// columns: a row cannot state NaN, recording-v1).
     pub v_n_mps: [f64; 3],
     /// Horizontal 1-sigma, m.
     pub sigma_h_m: f64,
     /// Vertical 1-sigma, m.
     pub sigma_v_m: f64,
-    /// Velocity 1-sigma, m/s (NaN in a position-only fix).
+    /// Velocity 1-sigma, m/s (NaN when the file has no velocity columns).
     pub sigma_vel_mps: f64,
     /// The receiver's solution type (the optional `quality` column,
     /// RTKLIB's Q codes), `None` when not given.
@@ -391,7 +392,8 @@ pub fn parse_gnss(text: &str, path: &Path) -> Result<Vec<GnssRow>, RecordingErro
 }
 
 /// One fix, checked: a position in range, positive sigmas, and a velocity
-/// with its positive sigma, or (a position-only file's row) all four NaN.
+/// with its positive sigma, or all four NaN (the parser's fill for a file
+/// without the velocity columns).
 fn gnss_row(
     path: &Path,
     line: usize,
@@ -415,7 +417,7 @@ fn gnss_row(
         return Err(err(
             path,
             Some(line),
-            "the velocity must be finite with a positive sigma (or all four NaN: no velocity)",
+            "the velocity must be finite with a positive sigma (fixes without one: a file without the four velocity columns, recording-v1)",
         ));
     }
     Ok(GnssRow {
