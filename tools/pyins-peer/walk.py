@@ -75,7 +75,8 @@ def align(imu, increments, fixes, first_fix):
     Level: the mean specific force over the still start (the first 2 s;
     FRD, at rest f = -g down). Heading: pyins's strapdown from rest with
     heading 0 over the first 10 s of walking (from the first fix faster
-    than 0.5 m/s); its horizontal velocity changes over each 1 s between
+    than 0.5 m/s; the fixes outside the outages in it); its horizontal
+    velocity changes over each 1 s between
     fixes are a rotation of the fixes' by the heading (the least-squares
     angle in closed form); its 1-sigma the spread of the single pairs'
     angles (not divided down: the strapdown's drift over the window is
@@ -100,6 +101,8 @@ def align(imu, increments, fixes, first_fix):
         i0, i1 = ins.index.get_indexer([t, t1], method="nearest")
         a = ins.iloc[i1][["VN", "VE"]].values - ins.iloc[i0][["VN", "VE"]].values
         g = win.iloc[win.index.get_indexer([t1], method="nearest")[0]]
+        if abs(g.name - t1) > 0.1:
+            continue  # no fix a second on: an outage withholds it
         b = np.array([g["vn_mps"], g["ve_mps"]]) - np.array(
             [win.loc[t]["vn_mps"], win.loc[t]["ve_mps"]])
         cross += a[0] * b[1] - a[1] * b[0]
@@ -252,12 +255,15 @@ def main():
             part = part[~np.isin(part.index.values, grid)]
             meas.append(kind(part, 0.05, imu_to_antenna_b=lever))
 
-    f0 = fixes.iloc[0]
+    # The start and the alignment from the fixes outside the outages only
+    # (before, the alignment's window read the withheld ones when an
+    # outage cut into it).
+    f0 = used.iloc[0]
     pva = pd.Series({
         "lat": f0["lat_deg"], "lon": f0["lon_deg"], "alt": f0["height_m"],
         "VN": 0.0, "VE": 0.0, "VD": 0.0, "roll": 0.0, "pitch": 0.0, "heading": 0.0})
     pva.name = imu.index[0]  # the first increment ends at the second sample
-    roll, pitch, heading, level_sd, heading_sd = align(imu, increments, fixes, pva)
+    roll, pitch, heading, level_sd, heading_sd = align(imu, increments, used, pva)
     print(f"pyins: own alignment roll {roll:.2f} pitch {pitch:.2f} heading {heading:.1f} deg, "
           f"1-sigma level {level_sd:.2f} heading {heading_sd:.1f} deg")
     pva["roll"], pva["pitch"], pva["heading"] = roll, pitch, heading
