@@ -59,9 +59,10 @@ const PASSES: [(usize, bool); 6] = [
 /// each axis's own curvature, which holds the others fixed.
 ///
 /// # Errors
-/// A run that fails, no fix used, or a least NIS still falling at
+/// A run that fails, no fix used, a least NIS still falling at
 /// [`MAX_SPAN_M`] from the given arm (the first search looks
-/// [`SPAN_M`] each way and walks on while the NIS falls).
+/// [`SPAN_M`] each way and walks on while the NIS falls). Whether the
+/// runs fit the fixes at the arm found is [`LeverEstimate::fits`].
 pub fn estimate(
     rec: &Recording,
     opt: &AidedOptions,
@@ -106,13 +107,40 @@ pub fn estimate(
             arm[axis] = fine;
         }
     }
+    let nis_per_dof = [nis.at(&given)?.1, nis.at(&arm)?.1];
     let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
     Ok(LeverEstimate {
         given_b_m: given,
         b_m: arm,
         sigma_m,
-        nis_per_dof: [nis.at(&given)?.1, nis.at(&arm)?.1],
+        nis_per_dof,
     })
+}
+
+impl LeverEstimate {
+    /// The pre-pass's runs fit the fixes at the least arm: their NIS per
+    /// degree of freedom at most [`super::offset::HINT_NIS_PER_DOF`]. A
+    /// run that is lost (an outage over the fixes the heading is aligned
+    /// on) fits no arm, and the least of its NIS is an arm bent to absorb
+    /// the lost run's errors, with a curvature as sharp as the loss (the
+    /// book's walk with an outage over its alignment). A clock off by a
+    /// tenth of a second fits no arm either, yet its least is the start
+    /// the joint estimate ([`super::joint`]) refines: `navigate` refuses
+    /// an arm that does not fit only where no offset is estimated with it.
+    ///
+    /// # Errors
+    /// The runs fit no arm: why, with the figures.
+    pub fn fits(&self) -> Result<()> {
+        let bound = super::offset::HINT_NIS_PER_DOF;
+        let least = self.nis_per_dof[1];
+        // NaN (no fix) fails too: no arm is found from nothing.
+        if least <= bound {
+            return Ok(());
+        }
+        bail!(
+            "the fixes fit no arm: their NIS per degree of freedom is {least:.1} at the least (their sigmas allow about 1, {bound} at most): the pre-pass's runs are lost, not the arm (an outage over the fixes the heading is aligned on? a clock?)"
+        )
+    }
 }
 
 /// A line search's grid: (value, total NIS, NIS per degree of freedom).
@@ -267,7 +295,8 @@ pub struct LeverHint {
 impl LeverHint {
     /// Estimates the arm of `rec` navigated with `opt`.
     pub fn find(rec: &Recording, opt: &AidedOptions, progress: &mut dyn FnMut(f64)) -> Self {
-        match estimate(rec, opt, progress) {
+        let fitting = |e: LeverEstimate| e.fits().map(|()| e);
+        match estimate(rec, opt, progress).and_then(fitting) {
             Ok(e) => {
                 let off = |i: usize| {
                     let d = (e.b_m[i] - e.given_b_m[i]).abs();

@@ -117,6 +117,8 @@ pub struct Args {
     /// Estimate the antenna's lever arm in b (a pre-pass along each axis,
     /// within 3 m of the sensor file's or meta.toml's) and navigate with
     /// it; an axis the motion does not turn about is kept as given.
+    /// Refused when the fixes fit no arm (their NIS per dof above 1.5 at
+    /// the best: a lost run), unless with --estimate-time-offset
     #[arg(long, requires = "gnss")]
     pub estimate_lever_arm: bool,
     /// Navigate with the given antenna arm even when the fixes refute it.
@@ -508,6 +510,10 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             let e = rins::aided::lever::estimate(rec, &opt, &mut |f| {
                 pb.set_position((f * 1000.0) as u64)
             })?;
+            // With --estimate-time-offset the joint estimate refines it.
+            if !a.estimate_time_offset {
+                e.fits().context("--estimate-lever-arm: no arm found")?;
+            }
             pb.finish_and_clear();
             println!("{}", lever_line(&e));
             opt.lever_b_m = Some(e.b_m);
