@@ -208,6 +208,7 @@ const NAVIGATE: Walk = Walk {
         refused("--keep-given-arm", &["{rec}", "--keep-given-arm", "--out", "{out}/n"], &["--gnss"]),
         refused("--keep-given-arm", &["{fix}/walkrec", "--gnss", "--keep-given-arm", "--estimate-time-offset", "--out", "{out}/n"], &["cannot be used with"]),
         refused("--estimate-lever-arm", &["{rec}", "--estimate-lever-arm", "--out", "{out}/n"], &["--gnss"]),
+        refused("--estimate-lever-arm", &["{fix}/walkrec", "--gnss", "--time-offset-s", "0.1", "--estimate-lever-arm", "--out", "{out}/n"], &["no arm found", "fit no arm"]),
         // Both: estimated together (rins::aided::joint), not one after the other.
         changes("--estimate-time-offset", &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-time-offset", "--estimate-lever-arm", "--out", "{out}/n"], &["{drive}", "--gnss", "--time-offset-s", "0.2", "--estimate-lever-arm", "--out", "{out}/n"], NAV),
         changes("--learn-noise", &["{fix}/walkrec", "--gnss", "--learn-noise", "--out", "{out}/n"], &["{fix}/walkrec", "--gnss", "--out", "{out}/n"], NAV),

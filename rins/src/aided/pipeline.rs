@@ -221,7 +221,9 @@ fn start_attitude(
     let [roll, pitch, heading] = a.euler_rad;
     let initial = InitialSigma {
         level_rad: a.level_sigma_rad,
-        heading_rad: a.heading_sigma_rad,
+        heading_rad: a
+            .heading_sigma_rad
+            .max(align::START_HEADING_SIGMA_DEG.to_radians()),
         ..INITIAL_SIGMA
     };
     let e = Euler {
@@ -229,7 +231,11 @@ fn start_attitude(
         pitch,
         heading,
     };
-    Ok((e, initial, StartAttitude::of("aligned", &initial), Some(a)))
+    let from = StartAttitude {
+        heading_fit_sigma_deg: Some(a.heading_sigma_rad.to_degrees()),
+        ..StartAttitude::of("aligned", &initial)
+    };
+    Ok((e, initial, from, Some(a)))
 }
 
 /// The least start sigma a stated one is taken as, rad (a stated 0 would
@@ -249,6 +255,9 @@ pub struct StartAttitude {
     pub level_stated: bool,
     /// meta.toml states the heading's sigma.
     pub heading_stated: bool,
+    /// An aligned start: the heading fit's own 1-sigma, deg (the filter
+    /// starts wider, `align::START_HEADING_SIGMA_DEG`).
+    pub heading_fit_sigma_deg: Option<f64>,
 }
 
 impl StartAttitude {
@@ -259,6 +268,7 @@ impl StartAttitude {
             heading_sigma_deg: s.heading_rad.to_degrees(),
             level_stated: false,
             heading_stated: false,
+            heading_fit_sigma_deg: None,
         }
     }
 
@@ -273,8 +283,14 @@ impl StartAttitude {
             "meta.toml" => "meta.toml's",
             _ => "aligned on the still start and the fixes",
         };
+        let fit = self.heading_fit_sigma_deg.map_or(String::new(), |f| {
+            format!(
+                " (the fit's {} deg: its fixes enter the filter again)",
+                recording::figures::sig(f, 2)
+            )
+        });
         format!(
-            "start attitude: {from}, 1-sigma level {} deg{}, heading {} deg{}\n",
+            "start attitude: {from}, 1-sigma level {} deg{}, heading {} deg{}{fit}\n",
             recording::figures::sig(self.level_sigma_deg, 2),
             how(self.level_stated),
             recording::figures::sig(self.heading_sigma_deg, 2),
