@@ -179,15 +179,65 @@ pub struct OffsetHint {
     /// The offset found differs from the run's by more than twice its
     /// sigma and a grid step: re-run with it.
     pub recommended: bool,
+    /// When recommended and the run's clock and arm were the
+    /// recording's: the two found together around the offset found
+    /// ([`super::joint::for_hint`]), each sigma including what the other
+    /// absorbs (an arm held wrong bends the offset found alone, and the
+    /// offset held leaves the arm wrong).
+    pub together: Option<super::joint::JointEstimate>,
+    /// Why the two were not found together.
+    pub together_error: Option<String>,
+    /// The run was navigated again with `together` (or, not found, the
+    /// offset alone) and that run kept (`navigate` does when the fixes'
+    /// NIS per component falls with it).
+    pub applied: bool,
+    /// Why the run with `together` (or the offset) was not kept.
+    pub kept_given_because: Option<String>,
 }
 
 impl OffsetHint {
+    /// What the recommended offset led to: the two found together and
+    /// navigated with, or what to re-run with.
+    fn then(&self, e: &OffsetEstimate) -> String {
+        let found = match &self.together {
+            Some(j) => {
+                let arm = j.lever_b_m;
+                format!(
+                    "; with the antenna arm found together {:+.3} +- {:.3} s, the arm {:+.3}, {:+.3}, {:+.3} m in b",
+                    j.offset_s, j.sigma_s, arm[0], arm[1], arm[2]
+                )
+            }
+            None => self
+                .together_error
+                .as_deref()
+                .map_or(String::new(), |w| format!(" (not found with the arm: {w})")),
+        };
+        let what = if self.together.is_some() {
+            "both"
+        } else {
+            "it"
+        };
+        match (self.applied, &self.kept_given_because) {
+            (true, _) => format!(
+                "{found}: navigated with {what}, above (--time-offset-s or --keep-given-arm: as given)"
+            ),
+            (false, Some(why)) => format!("{found}: navigated with {what}, but kept this run: {why}"),
+            (false, None) if self.together.is_some() => {
+                format!("{found}: navigate with --estimate-time-offset --estimate-lever-arm")
+            }
+            (false, None) => format!(
+                "{found}: navigate with --time-offset-s {:.3} or --estimate-time-offset --estimate-lever-arm",
+                e.offset_s
+            ),
+        }
+    }
+
     /// The summary's line.
     pub fn text(&self) -> String {
         match (&self.estimate, self.recommended) {
             (Some(e), true) => format!(
-                "time offset: {}: a clock offset between the IMU and the receiver does that; the fixes' NIS puts the IMU {:+.3} +- {:.3} s late (this run took {:+.3} s): navigate with --time-offset-s {:.3} or --estimate-time-offset\n",
-                self.symptom, e.offset_s, e.sigma_s, self.run_offset_s, e.offset_s
+                "time offset: {}: a clock offset between the IMU and the receiver does that; the fixes' NIS puts the IMU {:+.3} +- {:.3} s late (this run took {:+.3} s){}\n",
+                self.symptom, e.offset_s, e.sigma_s, self.run_offset_s, self.then(e)
             ),
             (Some(e), false) => format!(
                 "time offset: {}; the fixes' NIS puts the IMU {:+.3} +- {:.3} s late, where this run took it: not the clocks\n",
@@ -212,7 +262,18 @@ pub fn hint(
     run: &super::AidedRun,
     progress: &mut dyn FnMut(f64),
 ) -> Option<OffsetHint> {
-    let symptom = symptom(s, run)?;
+    Some(hint_because(rec, opt, symptom(s, run)?, progress))
+}
+
+/// The offset estimated around `opt`'s over +-0.5 s in 0.02 s steps, for
+/// a run that showed `symptom` (its own, or the arm's pre-pass finding
+/// no arm at the run's clock: [`super::lever::LeverEstimate::fits`]).
+pub fn hint_because(
+    rec: &Recording,
+    opt: &AidedOptions,
+    symptom: String,
+    progress: &mut dyn FnMut(f64),
+) -> OffsetHint {
     let step = 0.02;
     let (estimate, error) = match estimate(rec, opt, 0.5, step, progress) {
         Ok(e) => (Some(e), None),
@@ -222,11 +283,15 @@ pub fn hint(
         let d = (e.offset_s - opt.time_offset_s).abs();
         d > 2.0 * e.sigma_s && d > step
     });
-    Some(OffsetHint {
+    OffsetHint {
         symptom,
         estimate,
         error,
         run_offset_s: opt.time_offset_s,
         recommended,
-    })
+        together: None,
+        together_error: None,
+        applied: false,
+        kept_given_because: None,
+    }
 }

@@ -101,13 +101,10 @@ pub struct Args {
     pub gnss_position_only: bool,
     /// How late the IMU's clock runs behind the receiver's, s (known in
     /// advance): a fix at the receiver's t is taken at the IMU's t + this.
-    #[arg(
-        long,
-        default_value_t = 0.0,
-        allow_negative_numbers = true,
-        requires = "gnss"
-    )]
-    pub time_offset_s: f64,
+    /// Default 0; given, a run whose fixes point at the clocks says so
+    /// but keeps it
+    #[arg(long, allow_negative_numbers = true, requires = "gnss")]
+    pub time_offset_s: Option<f64>,
     /// Estimate the IMU-to-GNSS time offset (a pre-pass over +-0.5 s,
     /// around --time-offset-s) and navigate with it. With
     /// --estimate-lever-arm: the two estimated together, each sigma
@@ -467,6 +464,31 @@ fn receiver_floor(
     })
 }
 
+/// The run navigated again with `theirs`, kept only when the fixes agree
+/// with it better over the whole run (their NIS per component falls;
+/// the pre-passes measured that on their own runs): `Err` says why not.
+fn again_if_better(
+    rec: &recording::Recording,
+    theirs: &rins::aided::AidedOptions,
+    before: &rins::aided::AidedSummary,
+    what: &str,
+) -> Result<std::result::Result<(rins::aided::AidedRun, rins::aided::AidedSummary), String>> {
+    let pb = progress_bar(&format!("navigate --gnss, {what}"));
+    let again = rins::aided::navigate(rec, theirs, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    pb.finish_and_clear();
+    let s = rins::aided::summary(rec, &again);
+    let nis = |s: &rins::aided::AidedSummary| s.nis_mean_per_dof.unwrap_or(f64::INFINITY);
+    Ok(if nis(&s) < nis(before) {
+        Ok((again, s))
+    } else {
+        Err(format!(
+            "with it the fixes' NIS per component was {:.2}, not below this run's {:.2}",
+            nis(&s),
+            nis(before)
+        ))
+    })
+}
+
 /// `rins navigate --gnss`.
 fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let mut rec = rins::aided::span::cut(rec, a.start_s, a.end_s)?;
@@ -493,7 +515,7 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
             .collect::<Result<_>>()?,
         floor: receiver_floor(a.gnss_floor_m.as_deref(), rec)?,
         gnss_velocity: !a.gnss_position_only,
-        time_offset_s: a.time_offset_s,
+        time_offset_s: a.time_offset_s.unwrap_or(0.0),
         vehicle: a
             .vehicle
             .as_deref()
@@ -555,37 +577,63 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     let mut run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
     pb.finish_and_clear();
     let mut summary = rins::aided::summary(rec, &run);
-    let (hint, mut lever_hint) =
+    let (mut hint, mut lever_hint) =
         symptom_hints(rec, &opt, &summary, &run, offset.is_some(), lever.is_some());
+    // The clocks the fixes point at, or no arm fitting at the run's
+    // clock, when the recording's clock and arm were the run's: the two
+    // found together, and the run again with them.
+    let open =
+        a.time_offset_s.is_none() && !a.keep_given_arm && lever.is_none() && offset.is_none();
+    let lost = lever_hint
+        .as_ref()
+        .and_then(|l| l.error.clone())
+        .filter(|_| open && hint.is_none());
+    if let Some(why) = &lost {
+        let pb = progress_bar("time offset");
+        let symptom = format!("the antenna arm's pre-pass at this run's clock: {why}");
+        hint = Some(rins::aided::offset::hint_because(
+            rec,
+            &opt,
+            symptom,
+            &mut |f| pb.set_position((f * 1000.0) as u64),
+        ));
+        pb.finish_and_clear();
+    }
+    if let Some(h) = hint.as_mut().filter(|_| open) {
+        let pb = progress_bar("offset and arm together");
+        rins::aided::joint::for_hint(rec, &opt, h, &mut |f| pb.set_position((f * 1000.0) as u64));
+        pb.finish_and_clear();
+        // Not found together: the offset alone (an arm the fixes do not
+        // resolve, a car's).
+        let found = match (&h.together, &h.estimate) {
+            (Some(j), _) => Some((j.offset_s, Some(j.lever_b_m))),
+            (None, Some(e)) if h.recommended => Some((e.offset_s, opt.lever_b_m)),
+            _ => None,
+        };
+        if let Some((time_offset_s, lever_b_m)) = found {
+            let theirs = rins::aided::AidedOptions {
+                time_offset_s,
+                lever_b_m,
+                ..opt.clone()
+            };
+            match again_if_better(rec, &theirs, &summary, "the clock found")? {
+                Ok(better) => ((run, summary), h.applied) = (better, true),
+                Err(why) => h.kept_given_because = Some(why),
+            }
+        }
+    }
     let refuted = lever_hint
         .as_mut()
         .filter(|l| l.recommended && !a.keep_given_arm)
-        .and_then(|l| {
-            l.applied = true;
-            l.estimate.as_ref().map(|e| e.b_m)
-        });
-    if let Some(b) = refuted {
+        .and_then(|l| l.estimate.as_ref().map(|e| e.b_m));
+    if let (Some(b), Some(l)) = (refuted, lever_hint.as_mut()) {
         let theirs = rins::aided::AidedOptions {
             lever_b_m: Some(b),
             ..opt.clone()
         };
-        let pb = progress_bar("navigate --gnss, the fixes' arm");
-        let again =
-            rins::aided::navigate(rec, &theirs, &mut |f| pb.set_position((f * 1000.0) as u64))?;
-        pb.finish_and_clear();
-        let s = rins::aided::summary(rec, &again);
-        // Kept only when the fixes agree with it better over the whole
-        // run (the pre-pass measured that on its own runs).
-        let nis = |s: &rins::aided::AidedSummary| s.nis_mean_per_dof.unwrap_or(f64::INFINITY);
-        if nis(&s) < nis(&summary) {
-            (run, summary) = (again, s);
-        } else if let Some(l) = lever_hint.as_mut() {
-            l.applied = false;
-            l.kept_given_because = Some(format!(
-                "with it the fixes' NIS per component was {:.2}, not below the given arm's {:.2}",
-                nis(&s),
-                nis(&summary)
-            ));
+        match again_if_better(rec, &theirs, &summary, "the fixes' arm")? {
+            Ok(better) => ((run, summary), l.applied) = (better, true),
+            Err(why) => l.kept_given_because = Some(why),
         }
     }
     let refuted = refuted.filter(|_| lever_hint.as_ref().is_some_and(|l| l.applied));
@@ -598,9 +646,13 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
     if refuted.is_some() {
         println!("the run with the given antenna arm, before:");
     }
+    // (An arm not found at the run's clock is said in the clocks' line.)
     for text in [
         hint.as_ref().map(|h| h.text()),
-        lever_hint.as_ref().map(|l| l.text()),
+        lever_hint
+            .as_ref()
+            .filter(|_| lost.is_none())
+            .map(|l| l.text()),
     ]
     .into_iter()
     .flatten()
