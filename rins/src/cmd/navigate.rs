@@ -503,7 +503,23 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         recording::moving::truth_overlap(truth, first.t_s, last.t_s, &a.rec.join("truth.csv"))
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    let opt = rins::aided::AidedOptions {
+    let mut opt = aided_options(a, rec, profile)?;
+    let asked = asked_estimates(a, rec, &mut opt)?;
+    let pb = progress_bar("navigate --gnss");
+    let run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+    pb.finish_and_clear();
+    let summary = rins::aided::summary(rec, &run);
+    let (run, summary, hints) = follow_hints(a, rec, &opt, &asked, (run, summary))?;
+    report(a, rec, &run, &summary, &asked, &hints)
+}
+
+/// `navigate --gnss`'s options from the flags (the estimates' not yet).
+fn aided_options(
+    a: &Args,
+    rec: &recording::Recording,
+    profile: hal_sim::imu::ImuSpec,
+) -> Result<rins::aided::AidedOptions> {
+    Ok(rins::aided::AidedOptions {
         profile,
         zupt: !a.no_zupt,
         gate_sigma: a.gate_sigma,
@@ -523,136 +539,189 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         lever_b_m: None,
         learn_noise: a.learn_noise,
         vertical_learn: a.vertical_noise == "learn",
+    })
+}
+
+/// What the flags asked estimated before the run.
+struct Asked {
+    lever: Option<rins::aided::lever::LeverEstimate>,
+    offset: Option<rins::aided::offset::OffsetEstimate>,
+    joint: Option<rins::aided::joint::JointEstimate>,
+}
+
+/// `--estimate-lever-arm`, `--estimate-time-offset` and the two
+/// together: each printed and put into `opt`.
+fn asked_estimates(
+    a: &Args,
+    rec: &recording::Recording,
+    opt: &mut rins::aided::AidedOptions,
+) -> Result<Asked> {
+    let mut asked = Asked {
+        lever: None,
+        offset: None,
+        joint: None,
     };
-    let mut opt = opt;
-    let lever = match a.estimate_lever_arm {
-        false => None,
-        true => {
-            let pb = progress_bar("lever arm");
-            let e = rins::aided::lever::estimate(rec, &opt, &mut |f| {
-                pb.set_position((f * 1000.0) as u64)
-            })?;
-            // With --estimate-time-offset the joint estimate refines it.
-            if !a.estimate_time_offset {
-                e.fits().context("--estimate-lever-arm: no arm found")?;
-            }
-            pb.finish_and_clear();
-            println!("{}", lever_line(&e));
-            opt.lever_b_m = Some(e.b_m);
-            Some(e)
+    if a.estimate_lever_arm {
+        let pb = progress_bar("lever arm");
+        let e =
+            rins::aided::lever::estimate(rec, opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
+        // With --estimate-time-offset the joint estimate refines it.
+        if !a.estimate_time_offset {
+            e.fits().context("--estimate-lever-arm: no arm found")?;
         }
-    };
-    let offset = match a.estimate_time_offset {
-        false => None,
-        true => {
-            let pb = progress_bar("time offset");
-            let around = opt.clone();
-            let e = rins::aided::offset::estimate(rec, &around, 0.5, 0.02, &mut |f| {
-                pb.set_position((f * 1000.0) as u64)
-            })?;
-            pb.finish_and_clear();
-            println!(
-                "IMU-to-GNSS time offset: {:+.3} s +- {:.3} s (the IMU late; from the fixes' NIS over +-0.5 s)",
-                e.offset_s, e.sigma_s
-            );
-            opt.time_offset_s = e.offset_s;
-            Some(e)
-        }
-    };
-    let joint = match (&offset, &lever) {
-        (Some(o), Some(l)) => {
-            let pb = progress_bar("offset and arm together");
-            let e = rins::aided::joint::estimate(rec, &opt, o, l, &mut |f| {
-                pb.set_position((f * 1000.0) as u64)
-            })?;
-            pb.finish_and_clear();
-            print!("{}", e.text());
-            opt.time_offset_s = e.offset_s;
-            opt.lever_b_m = Some(e.lever_b_m);
-            Some(e)
-        }
-        _ => None,
-    };
-    let pb = progress_bar("navigate --gnss");
-    let mut run = rins::aided::navigate(rec, &opt, &mut |f| pb.set_position((f * 1000.0) as u64))?;
-    pb.finish_and_clear();
-    let mut summary = rins::aided::summary(rec, &run);
-    let (mut hint, mut lever_hint) =
-        symptom_hints(rec, &opt, &summary, &run, offset.is_some(), lever.is_some());
-    // The clocks the fixes point at, or no arm fitting at the run's
-    // clock, when the recording's clock and arm were the run's: the two
-    // found together, and the run again with them.
-    let open =
-        a.time_offset_s.is_none() && !a.keep_given_arm && lever.is_none() && offset.is_none();
-    let lost = lever_hint
+        pb.finish_and_clear();
+        println!("{}", lever_line(&e));
+        opt.lever_b_m = Some(e.b_m);
+        asked.lever = Some(e);
+    }
+    if a.estimate_time_offset {
+        let pb = progress_bar("time offset");
+        let e = rins::aided::offset::estimate(rec, opt, 0.5, 0.02, &mut |f| {
+            pb.set_position((f * 1000.0) as u64)
+        })?;
+        pb.finish_and_clear();
+        println!(
+            "IMU-to-GNSS time offset: {:+.3} s +- {:.3} s (the IMU late; from the fixes' NIS over +-0.5 s)",
+            e.offset_s, e.sigma_s
+        );
+        opt.time_offset_s = e.offset_s;
+        asked.offset = Some(e);
+    }
+    if let (Some(o), Some(l)) = (&asked.offset, &asked.lever) {
+        let pb = progress_bar("offset and arm together");
+        let e = rins::aided::joint::estimate(rec, opt, o, l, &mut |f| {
+            pb.set_position((f * 1000.0) as u64)
+        })?;
+        pb.finish_and_clear();
+        print!("{}", e.text());
+        opt.time_offset_s = e.offset_s;
+        opt.lever_b_m = Some(e.lever_b_m);
+        asked.joint = Some(e);
+    }
+    Ok(asked)
+}
+
+/// What a finished run's symptoms led to.
+struct Hints {
+    clocks: Option<rins::aided::offset::OffsetHint>,
+    lever: Option<rins::aided::lever::LeverHint>,
+    /// The arm's pre-pass found no arm at the run's clock, and that was
+    /// the clocks' symptom (said in their line, not again).
+    arm_lost: bool,
+}
+
+type Navigated = (rins::aided::AidedRun, rins::aided::AidedSummary);
+
+/// The symptoms' hypotheses, one at a time (the clocks, then the arm),
+/// and the run again with what they find where the flags leave it open.
+fn follow_hints(
+    a: &Args,
+    rec: &recording::Recording,
+    opt: &rins::aided::AidedOptions,
+    asked: &Asked,
+    mut now: Navigated,
+) -> Result<(rins::aided::AidedRun, rins::aided::AidedSummary, Hints)> {
+    let (lever_done, offset_done) = (asked.lever.is_some(), asked.offset.is_some());
+    let (mut clocks, mut lever) = symptom_hints(rec, opt, &now.1, &now.0, offset_done, lever_done);
+    // The recording's clock and arm were the run's: what the clocks'
+    // symptom (or an arm fitting at no point of this clock) finds is
+    // navigated with.
+    let open = a.time_offset_s.is_none() && !a.keep_given_arm && !lever_done && !offset_done;
+    let lost = lever
         .as_ref()
         .and_then(|l| l.error.clone())
-        .filter(|_| open && hint.is_none());
+        .filter(|_| open && clocks.is_none());
     if let Some(why) = &lost {
         let pb = progress_bar("time offset");
         let symptom = format!("the antenna arm's pre-pass at this run's clock: {why}");
-        hint = Some(rins::aided::offset::hint_because(
+        clocks = Some(rins::aided::offset::hint_because(
             rec,
-            &opt,
+            opt,
             symptom,
             &mut |f| pb.set_position((f * 1000.0) as u64),
         ));
         pb.finish_and_clear();
     }
-    if let Some(h) = hint.as_mut().filter(|_| open) {
-        let pb = progress_bar("offset and arm together");
-        rins::aided::joint::for_hint(rec, &opt, h, &mut |f| pb.set_position((f * 1000.0) as u64));
-        pb.finish_and_clear();
-        // Not found together: the offset alone (an arm the fixes do not
-        // resolve, a car's).
-        let found = match (&h.together, &h.estimate) {
-            (Some(j), _) => Some((j.offset_s, Some(j.lever_b_m))),
-            (None, Some(e)) if h.recommended => Some((e.offset_s, opt.lever_b_m)),
-            _ => None,
-        };
-        if let Some((time_offset_s, lever_b_m)) = found {
-            let theirs = rins::aided::AidedOptions {
-                time_offset_s,
-                lever_b_m,
-                ..opt.clone()
-            };
-            match again_if_better(rec, &theirs, &summary, "the clock found")? {
-                Ok(better) => ((run, summary), h.applied) = (better, true),
-                Err(why) => h.kept_given_because = Some(why),
-            }
-        }
+    if let Some(h) = clocks.as_mut().filter(|_| open) {
+        take_clock(rec, opt, h, &mut now)?;
     }
-    let refuted = lever_hint
-        .as_mut()
+    let refuted = lever
+        .as_ref()
         .filter(|l| l.recommended && !a.keep_given_arm)
         .and_then(|l| l.estimate.as_ref().map(|e| e.b_m));
-    if let (Some(b), Some(l)) = (refuted, lever_hint.as_mut()) {
+    if let (Some(b), Some(l)) = (refuted, lever.as_mut()) {
         let theirs = rins::aided::AidedOptions {
             lever_b_m: Some(b),
             ..opt.clone()
         };
-        match again_if_better(rec, &theirs, &summary, "the fixes' arm")? {
-            Ok(better) => ((run, summary), l.applied) = (better, true),
+        match again_if_better(rec, &theirs, &now.1, "the fixes' arm")? {
+            Ok(better) => (now, l.applied) = (better, true),
             Err(why) => l.kept_given_because = Some(why),
         }
     }
-    let refuted = refuted.filter(|_| lever_hint.as_ref().is_some_and(|l| l.applied));
+    let hints = Hints {
+        clocks,
+        lever,
+        arm_lost: lost.is_some(),
+    };
+    Ok((now.0, now.1, hints))
+}
+
+/// A clock the fixes point at: found with the arm
+/// ([`rins::aided::joint::for_hint`]), or alone where the two are not
+/// found together (an arm the fixes do not resolve, a car's), and the
+/// run again with it, kept when the fixes agree with it better.
+fn take_clock(
+    rec: &recording::Recording,
+    opt: &rins::aided::AidedOptions,
+    h: &mut rins::aided::offset::OffsetHint,
+    now: &mut Navigated,
+) -> Result<()> {
+    let pb = progress_bar("offset and arm together");
+    rins::aided::joint::for_hint(rec, opt, h, &mut |f| pb.set_position((f * 1000.0) as u64));
+    pb.finish_and_clear();
+    let found = match (&h.together, &h.estimate) {
+        (Some(j), _) => Some((j.offset_s, Some(j.lever_b_m))),
+        (None, Some(e)) if h.recommended => Some((e.offset_s, opt.lever_b_m)),
+        _ => None,
+    };
+    let Some((time_offset_s, lever_b_m)) = found else {
+        return Ok(());
+    };
+    let theirs = rins::aided::AidedOptions {
+        time_offset_s,
+        lever_b_m,
+        ..opt.clone()
+    };
+    match again_if_better(rec, &theirs, &now.1, "the clock found")? {
+        Ok(better) => (*now, h.applied) = (better, true),
+        Err(why) => h.kept_given_because = Some(why),
+    }
+    Ok(())
+}
+
+/// The trajectory, the summary with the hints, the plots and `--json`.
+fn report(
+    a: &Args,
+    rec: &recording::Recording,
+    run: &rins::aided::AidedRun,
+    summary: &rins::aided::AidedSummary,
+    asked: &Asked,
+    hints: &Hints,
+) -> Result<()> {
     std::fs::create_dir_all(&a.out).with_context(|| format!("creating {}", a.out.display()))?;
     write_file(
         &a.out.join("trajectory.csv"),
         &rins::aided::trajectory_csv(&run.rows),
     )?;
     print!("{}", summary.text());
-    if refuted.is_some() {
+    if hints.lever.as_ref().is_some_and(|l| l.applied) {
         println!("the run with the given antenna arm, before:");
     }
-    // (An arm not found at the run's clock is said in the clocks' line.)
+    let lever = hints.lever.as_ref().filter(|_| !hints.arm_lost);
     for text in [
-        hint.as_ref().map(|h| h.text()),
-        lever_hint
-            .as_ref()
-            .filter(|_| lost.is_none())
-            .map(|l| l.text()),
+        hints.clocks.as_ref().map(|h| h.text()),
+        lever.map(|l| l.text()),
     ]
     .into_iter()
     .flatten()
@@ -660,28 +729,31 @@ fn run_aided(a: &Args, rec: &recording::Recording) -> Result<()> {
         print!("{text}");
     }
     println!("wrote {}", a.out.join("trajectory.csv").display());
-    let plots = rins::aided::plots(rec, &run, &a.out)?;
+    let plots = rins::aided::plots(rec, run, &a.out)?;
     println!(
         "wrote {} plots in {} (map, position_error, consistency)",
         plots.len(),
         a.out.display()
     );
-    if let Some(p) = &a.json {
-        let mut j = summary.json();
-        if let (Some(e), Some(m)) = (&offset, j.as_object_mut()) {
+    let Some(p) = &a.json else {
+        return Ok(());
+    };
+    let mut j = summary.json();
+    if let Some(m) = j.as_object_mut() {
+        m.insert(
+            "time_offset_hint".into(),
+            serde_json::to_value(&hints.clocks)?,
+        );
+        m.insert("lever_arm_hint".into(), serde_json::to_value(&hints.lever)?);
+        if let Some(e) = &asked.offset {
             m.insert("time_offset".into(), serde_json::to_value(e)?);
         }
-        if let Some(m) = j.as_object_mut() {
-            m.insert("time_offset_hint".into(), serde_json::to_value(&hint)?);
-            m.insert("lever_arm_hint".into(), serde_json::to_value(&lever_hint)?);
-        }
-        if let (Some(e), Some(m)) = (&lever, j.as_object_mut()) {
+        if let Some(e) = &asked.lever {
             m.insert("lever_arm".into(), serde_json::to_value(e)?);
         }
-        if let (Some(e), Some(m)) = (&joint, j.as_object_mut()) {
+        if let Some(e) = &asked.joint {
             m.insert("offset_and_lever_arm".into(), serde_json::to_value(e)?);
         }
-        write_file(p, &serde_json::to_string_pretty(&j)?)?;
     }
-    Ok(())
+    write_file(p, &serde_json::to_string_pretty(&j)?)
 }
