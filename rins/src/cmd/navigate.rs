@@ -118,11 +118,13 @@ pub struct Args {
     /// the best: a lost run), unless with --estimate-time-offset
     #[arg(long, requires = "gnss")]
     pub estimate_lever_arm: bool,
-    /// Navigate with the given antenna arm even when the fixes refute it.
-    /// Without it, a run whose fixes sit farther off than their sigmas
-    /// allow, its clocks cleared, and whose arm the fixes put more than 3
-    /// sigma from the given one navigates again with theirs (said). Not
-    /// with --estimate-time-offset (its runs look no further)
+    /// Navigate with the given antenna arm and clock even when the fixes
+    /// refute them. Without it, a run whose fixes sit farther off than
+    /// their sigmas allow, its clocks cleared, and whose arm the fixes put
+    /// more than 3 sigma from the given one navigates again with theirs;
+    /// one whose fixes point at its clocks, with the clock and arm found
+    /// together (said). Not with --estimate-time-offset (its runs look no
+    /// further)
     #[arg(
         long,
         requires = "gnss",
