@@ -719,6 +719,8 @@ fn report(
     print!("{}", summary.text());
     if hints.lever.as_ref().is_some_and(|l| l.applied) {
         println!("the run with the given antenna arm, before:");
+    } else if hints.clocks.as_ref().is_some_and(|h| h.applied) {
+        println!("the run with the recording's clock and arm, before:");
     }
     let lever = hints.lever.as_ref().filter(|_| !hints.arm_lost);
     for text in [
