@@ -642,9 +642,9 @@ fn make_fixtures() -> PathBuf {
         &p("drive"),
     ]);
     ok(&["calibrate", &p("rec"), "--json", &p("cal.json")]);
-    copy_recording(&d.join("rec"), &d.join("spike"));
+    common::copy_recording(&d.join("rec"), &d.join("spike"));
     spike(&d.join("spike/imu.csv"), 8000);
-    copy_recording(&d.join("rec"), &d.join("nosigma"));
+    common::copy_recording(&d.join("rec"), &d.join("nosigma"));
     let meta = std::fs::read_to_string(d.join("nosigma/meta.toml")).unwrap();
     let meta: String = meta
         .lines()
@@ -692,14 +692,6 @@ fn make_fixtures() -> PathBuf {
         ]);
     }
     d
-}
-
-fn copy_recording(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-    }
 }
 
 /// Sets gyro x of data row `row` of an imu.csv to 10 rad/s: a lone

@@ -43,13 +43,10 @@ fn mean_end(j: &Value) -> f64 {
     e.iter().sum::<f64>() / e.len() as f64
 }
 
-/// A copy of `from` with every fix's stamp `SHIFT_S` earlier.
-fn early_copy(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-    }
+/// A copy of the recording `from` at `to` with every fix stamped
+/// `early_s` earlier (a fix that would then precede the run dropped).
+fn stamped_early(from: &Path, to: &Path, early_s: f64) {
+    common::copy_recording(from, to);
     let text = std::fs::read_to_string(from.join("gnss.csv")).unwrap();
     let mut lines = text.lines();
     let head = lines.next().unwrap();
@@ -57,8 +54,10 @@ fn early_copy(from: &Path, to: &Path) {
     let mut out = format!("{head}\n");
     for l in lines {
         let (t, rest) = l.split_once(',').unwrap();
-        let t: f64 = t.parse().unwrap();
-        out.push_str(&format!("{:.4},{rest}\n", t - SHIFT_S));
+        let t = t.parse::<f64>().unwrap() - early_s;
+        if t >= 0.0 {
+            out.push_str(&format!("{t:.4},{rest}\n"));
+        }
     }
     std::fs::write(to.join("gnss.csv"), out).unwrap();
 }
@@ -70,7 +69,7 @@ fn a_clock_the_recording_does_not_state_is_found_with_the_arm_by_default() {
     let args = rins_tests::data::walk_import_args(&rec);
     ok(&rins(&args.iter().map(String::as_str).collect::<Vec<_>>()));
     let early = d.join("early");
-    early_copy(&rec, &early);
+    stamped_early(&rec, &early, SHIFT_S);
     let own = navigate(
         &rec,
         &d.join("own"),
@@ -136,25 +135,7 @@ fn a_car_s_late_imu_is_found_by_default_where_the_simulator_put_it() {
         "--out",
         &s(&sim),
     ]));
-    std::fs::create_dir_all(&late).unwrap();
-    for e in std::fs::read_dir(&sim).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), late.join(e.file_name())).unwrap();
-    }
-    let text = std::fs::read_to_string(sim.join("gnss.csv")).unwrap();
-    let mut out = String::new();
-    for (k, l) in text.lines().enumerate() {
-        match (k, l.split_once(',')) {
-            (0, _) | (_, None) => out.push_str(&format!("{l}\n")),
-            (_, Some((t, rest))) => {
-                let t: f64 = t.parse::<f64>().unwrap() - 0.25;
-                if t >= 0.0 {
-                    out.push_str(&format!("{t:.4},{rest}\n"));
-                }
-            }
-        }
-    }
-    std::fs::write(late.join("gnss.csv"), out).unwrap();
+    stamped_early(&sim, &late, 0.25);
     let (o, j) = (s(&d.join("nav")), s(&d.join("nav.json")));
     let text = ok(&rins(&[
         "navigate",

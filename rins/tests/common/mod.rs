@@ -97,3 +97,12 @@ pub fn options(text: &str) -> Vec<String> {
         .filter(|o| o != "--help" && o != "--version")
         .collect()
 }
+
+/// A copy of the recording `from` (its directory's files) at `to`.
+pub fn copy_recording(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
+    }
+}
