@@ -550,13 +550,17 @@ fn agree_positions<T: Real>(a: &RefusedFix<T>, b: &RefusedFix<T>, c: &RefusedFix
 
 /// One sample as the zero-velocity detector keeps it: the rotation with
 /// the table's removed and the specific force, in the base's frame and in
-/// the sensor's (rad/s, m/s^2).
+/// the sensor's (rad/s, m/s^2); in the sensor's frame the gyros as read,
+/// not corrected, with the table's rate (rad/s) apart: a window's mean is
+/// corrected with the estimate in force when it is used, not with the
+/// several in force while it filled.
 #[derive(Clone, Copy, Debug, Default)]
 struct Seen<T: Real> {
     w_b: Vector3<T>,
     f_b: Vector3<T>,
     w_s: Vector3<T>,
     f_s: Vector3<T>,
+    table_rate: T,
 }
 
 impl Seen<f32> {
@@ -565,6 +569,7 @@ impl Seen<f32> {
         f_b: crate::real::zeros_f32(),
         w_s: crate::real::zeros_f32(),
         f_s: crate::real::zeros_f32(),
+        table_rate: 0.0,
     };
 }
 
@@ -1141,8 +1146,9 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
             *slot = Seen {
                 w_b: w_ib_b,
                 f_b: csb * s.f_s,
-                w_s: s.w_is_s - k * table_rate,
+                w_s: raw.w_is_s - k * table_rate,
                 f_s: s.f_s,
+                table_rate,
             };
         }
         self.head = (self.head + 1) % ZUPT_WINDOW;
@@ -1209,7 +1215,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
                 if self.steps.wrapping_sub(self.zaru_at) >= ZUPT_WINDOW as u32 {
                     self.zaru_at = self.steps;
                     let w_ie_s = c_s_n.transpose() * w_ie;
-                    if self.zero_rotation(&w_ie_s, table_rate, ws).is_ok() {
+                    if self.zero_rotation(&w_ie_s, ws).is_ok() {
                         self.counts.zarus = self.counts.zarus.saturating_add(1);
                         out.zaru = true;
                     }
@@ -1447,9 +1453,12 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         pairs && triples
     }
 
-    /// The zero-rotation update on the still window: the corrected gyros'
-    /// mean in `s` with the table's rate taken out (the window holds it)
-    /// against the earth's rate `w_ie_s` (rad/s, `s`), each axis's
+    /// The zero-rotation update on the still window: the gyros' mean in
+    /// `s`, corrected with the estimate in force now, with the table's
+    /// rate taken out (the window holds both: a mean of samples each
+    /// corrected when it came mixes the estimates the window saw, and the
+    /// fixes move them while it fills) against the earth's rate `w_ie_s`
+    /// (rad/s, `s`), each axis's
     /// 1-sigma the mean's own (the window's scatter over `sqrt(W)`: a
     /// shaking base's), the white noise's, the table rate's along its axis
     /// and [`ZARU_FLOOR_RADPS`], in quadrature.
@@ -1457,23 +1466,27 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
     fn zero_rotation(
         &mut self,
         w_ie_s: &Vector3<T>,
-        table_rate: T,
         ws: Option<&mut Workspace<T, M>>,
     ) -> Result<crate::eskf::UpdateReport<T>, FilterError> {
         let n = T::lit(ZUPT_WINDOW as f64);
-        let mean = self
+        let (read, rate) = self
             .window
             .iter()
-            .fold(Vector3::zeros(), |a: Vector3<T>, x| a + x.w_s)
-            / n;
+            .fold((Vector3::zeros(), T::zero()), |a: (Vector3<T>, T), x| {
+                (a.0 + x.w_s, a.1 + x.table_rate)
+            });
+        let (read, rate) = (read / n, rate / n);
         let scatter = self
             .window
             .iter()
             .fold(Vector3::zeros(), |a: Vector3<T>, x| {
-                a + (x.w_s - mean).component_mul(&(x.w_s - mean))
+                a + (x.w_s - read).component_mul(&(x.w_s - read))
             });
         let zn = &self.cfg.zupt_noise;
         let k = self.cfg.axis.unit::<T>();
+        // The window's mean rate with the table's, corrected with the
+        // estimate in force now (the correction is linear in the rate).
+        let w_s = self.kf.correct_gyro(&(read + k * rate));
         let white = T::lit(zn.sigma_w_radps * zn.sigma_w_radps / ZUPT_WINDOW as f64);
         let floor = T::lit(ZARU_FLOOR_RADPS * ZARU_FLOOR_RADPS);
         let enc = T::lit(zn.sigma_table_rate_radps * zn.sigma_table_rate_radps);
@@ -1481,7 +1494,7 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
         let var = mean_var + k.component_mul(&k) * enc;
         let sigma = var.map(|v| (v + floor).sqrt_cr());
         self.kf
-            .update_rate_opt(&(mean - w_ie_s), &(mean + k * table_rate), &sigma, ws)
+            .update_rate_opt(&(w_s - k * rate - w_ie_s), &w_s, &sigma, ws)
     }
 
     /// The zero-velocity update's 1-sigma, m/s: the velocity the window's
@@ -1533,12 +1546,14 @@ impl<T: Real, const M: usize> AidedNav<T, M> {
                 f_b: a.f_b + x.f_b,
                 w_s: a.w_s + x.w_s,
                 f_s: a.f_s + x.f_s,
+                table_rate: a.table_rate + x.table_rate,
             });
         let m = Seen {
             w_b: sum.w_b / n,
             f_b: sum.f_b / n,
             w_s: sum.w_s / n,
             f_s: sum.f_s / n,
+            table_rate: sum.table_rate / n,
         };
         let zn = &self.cfg.zupt_noise;
         let (vf, vw) = (

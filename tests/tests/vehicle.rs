@@ -18,17 +18,26 @@ fn the_constraints_find_the_mounting_and_halve_the_minute_outage() {
     // 60 s outage's errors (their ends range 0.2-14 m from drive to drive).
     let s = vehicle_study::run(DriveKind::City, &imus, 1, 12, &|_| {}).unwrap();
     print!("{}", s.markdown());
+    // Every drive's axis within 4 of its sigmas, and at most one drive
+    // beyond 3: for a right sigma, of the 48 components (yaw and pitch on
+    // 24 drives) one lies beyond 3 with 12 % (48 x 0.27 %), two with
+    // 0.8 %, one beyond 4 with 0.3 %. (Measured: one, icm42688 seed 8,
+    // its yaw at 3.03 sigma.)
+    let mut beyond_3 = 0;
     for r in &s.runs {
         let [y, p] = r
             .forward_sigmas
             .expect("the forward axis found on every drive");
+        println!("{} seed {}: {y:.2} / {p:.2} sigma", r.imu, r.seed);
         assert!(
-            y <= 3.0 && p <= 3.0,
+            y <= 4.0 && p <= 4.0,
             "{} seed {}: {y:.2} / {p:.2} sigma",
             r.imu,
             r.seed
         );
+        beyond_3 += usize::from(y > 3.0 || p > 3.0);
     }
+    assert!(beyond_3 <= 1, "{beyond_3} drives beyond 3 sigma");
     // The axis's sigma against the spread over the 24 drives: the rms of
     // error over sigma is 1 for a right sigma; 24 unit normals' rms lies
     // in [0.64, 1.38] with 99 % (chi-square, 24 dof). Measured: yaw 0.99,
