@@ -1626,6 +1626,29 @@ mod tests {
     use nalgebra::{Matrix3, Vector3};
 
     #[test]
+    fn a_still_window_the_filter_s_velocity_refutes_is_not_still() {
+        // Zero velocity against the filter's velocity and its 1 cm/s
+        // sigma per axis, with the update's own 2 mm/s floor (an empty
+        // window wanders by nothing): its NIS is v^2 / (1e-4 + 4e-6), so
+        // chi-square(3)'s 1e-6 tail (30.66) falls at 5.65 cm/s along one
+        // axis, and in the closed form 5 cm/s is still, 6 cm/s is not.
+        let mut a = AidedNav::BLANK;
+        for i in 0..3 {
+            a.kf.p[(super::I_V + i, super::I_V + i)] = 1e-4;
+        }
+        let dt = 0.01;
+        assert!(a.velocity_allows_still(&Vector3::new(0.05, 0.0, 0.0), dt));
+        assert!(a.velocity_allows_still(&Vector3::new(0.0, -0.05, 0.0), dt));
+        assert!(!a.velocity_allows_still(&Vector3::new(0.06, 0.0, 0.0), dt));
+        assert!(!a.velocity_allows_still(&Vector3::new(0.0, 0.0, -0.06), dt));
+        // A velocity the filter is unsure of is no refutation.
+        for i in 0..3 {
+            a.kf.p[(super::I_V + i, super::I_V + i)] = 1.0;
+        }
+        assert!(a.velocity_allows_still(&Vector3::new(0.5, 0.0, 0.0), dt));
+    }
+
+    #[test]
     fn a_fix_between_two_samples_meets_the_track_where_it_was_taken() {
         // Two stored states 10 ms apart on a track at 1.5 m/s north: a fix
         // valid 4 ms after the first is compared with the position 6 mm on

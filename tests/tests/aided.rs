@@ -856,8 +856,14 @@ fn a_smooth_pull_away_from_a_stop_is_not_called_still() {
         );
         still += 1;
     }
+    // Since the zero-rotation window keeps the gyros as read, the
+    // detector's threshold, learnt from the start's spreads, is no longer
+    // raised by the bias estimate moving inside its windows, and it calls
+    // this pull-away moving itself: no window is left for the velocity to
+    // refute (the refutation's own test: core-nav's
+    // `a_still_window_the_filter_s_velocity_refutes_is_not_still`).
     println!("{still} still rows, {} refuted", run.still_refuted);
-    assert!(still > 500 && run.still_refuted > 0);
+    assert!(still > 500);
 }
 
 #[test]
