@@ -22,7 +22,10 @@
 //! horizontal (north, east) and vertical apart. Its 1-sigma is the
 //! least-squares one, `s / sqrt(sum w J^2)` with `J` the interpolated
 //! velocity's time derivative and `s^2` the fit's reduced chi-square (the
-//! stated sigmas' scale measured, not assumed).
+//! stated sigmas' scale measured, not assumed). **Resolved** only where
+//! the best fit is inside the search and clear of the lags an epoch
+//! either side (below): otherwise several lags fit alike and the
+//! curvature's sigma says nothing of which, so no figure is printed.
 //!
 //! **Taken** where the lag is positive, at least [`SIGNIFICANT`] of its
 //! sigmas from 0, its fit better than lag 0's and than the lags an epoch
@@ -56,7 +59,13 @@ pub struct Lag {
     pub rms_at_tag_mps: f64,
     /// The same at the lag, m/s.
     pub rms_at_lag_mps: f64,
-    /// Navigated with it ([`SIGNIFICANT`], positive, stored).
+    /// The best fit is clear of the lags an epoch either side (by
+    /// `SIGNIFICANT^2` of the fit's scaled chi-square) and inside the
+    /// search: false where the positions' noise hides the motion, and
+    /// then `lag_s` is one of several equally good lags and `sigma_s` (the
+    /// curvature's) says nothing of which.
+    pub resolved: bool,
+    /// Navigated with it ([`SIGNIFICANT`], positive, stored, resolved).
     pub taken: bool,
 }
 
@@ -116,6 +125,14 @@ impl VelocityLag {
     /// One line for the summary.
     pub fn text(&self) -> String {
         let part = |name: &str, l: &Lag| {
+            if !l.resolved {
+                return format!(
+                    "{name} not resolved (the fit as good an epoch either side or at the \
+                     search's edge: the positions' noise hides the motion; {:.3} m/s rms \
+                     at the tag; not taken)",
+                    l.rms_at_tag_mps,
+                );
+            }
             format!(
                 "{name} {:+.3} +- {:.3} s ({:.3} -> {:.3} m/s rms against the positions; {})",
                 l.lag_s,
@@ -252,10 +269,14 @@ fn fit_lag(
     // positions' noise hides the motion): each at least SIGNIFICANT^2
     // of the fit's scaled chi-square worse.
     let clear = |j: i64| at(j).is_none_or(|c| c[0] - chi2 >= SIGNIFICANT * SIGNIFICANT * s2);
-    let taken = best > 0.0
+    // At the search's edge the minimum may lie beyond it, and an alias
+    // beyond it is not seen.
+    let resolved = jb > 0 && jb < steps && [jb - epoch, jb + epoch].into_iter().all(clear);
+    let taken = resolved
+        && best > 0.0
         && best >= SIGNIFICANT * sigma_s
         && best <= max_lag_s
-        && [epoch, jb - epoch, jb + epoch].into_iter().all(clear);
+        && clear(epoch);
     let rms = |c: f64, w: f64| (c / w).sqrt();
     Some((
         Lag {
@@ -263,6 +284,7 @@ fn fit_lag(
             sigma_s,
             rms_at_tag_mps: rms(chi2_0, wsum_0),
             rms_at_lag_mps: rms(chi2, wsum),
+            resolved,
             taken,
         },
         usable.len(),
@@ -323,7 +345,7 @@ mod tests {
                 "{got:?} vs {want}"
             );
             assert!(
-                got.taken && got.rms_at_lag_mps < got.rms_at_tag_mps,
+                got.taken && got.resolved && got.rms_at_lag_mps < got.rms_at_tag_mps,
                 "{got:?}"
             );
         }
@@ -395,6 +417,29 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// Where the noise hides the motion the fit is as good an epoch
+    /// either side: such a lag is printed as not resolved, and a lag
+    /// called resolved must cover the truth (0) within 3 of its sigmas.
+    #[test]
+    fn a_lag_the_noise_aliases_is_not_called_resolved() {
+        let mut unresolved = 0;
+        for seed in 0..8 {
+            let l = velocity_lag(&noisy_car(seed), 0.62).expect("enough fixes");
+            for got in [l.horizontal, l.vertical] {
+                assert!(
+                    !got.resolved || got.lag_s.abs() <= 3.0 * got.sigma_s,
+                    "seed {seed}: {got:?}"
+                );
+                unresolved += usize::from(!got.resolved);
+                if !got.resolved {
+                    assert!(!got.taken, "seed {seed}: {got:?}");
+                }
+            }
+        }
+        // The gentle drive's vertical (no motion at all) is never resolved.
+        assert!(unresolved >= 8, "{unresolved}");
     }
 
     #[test]
