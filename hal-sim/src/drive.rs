@@ -244,14 +244,25 @@ impl Drive {
     /// Pitch (rad) and its derivative along the distance (rad/m) at
     /// distance `d` (m).
     fn pitch_at(&self, d: f64) -> (f64, f64) {
+        let (th, dth, _) = self.pitch_curve(d);
+        (th, dth)
+    }
+
+    /// Pitch (rad) and its first and second derivatives along the
+    /// distance (rad/m, rad/m^2) at distance `d` (m).
+    fn pitch_curve(&self, d: f64) -> (f64, f64, f64) {
         let tau = std::f64::consts::TAU;
-        let (mut g, mut dg) = (0.0, 0.0);
+        let (mut g, mut dg, mut ddg) = (0.0, 0.0, 0.0);
         for (a, l, ph) in &self.grade {
-            g += a * (tau * d / l + ph).sin();
-            dg += a * tau / l * (tau * d / l + ph).cos();
+            let k = tau / l;
+            g += a * (k * d + ph).sin();
+            dg += a * k * (k * d + ph).cos();
+            ddg -= a * k * k * (k * d + ph).sin();
         }
-        // theta = atan(g): d theta / d d = g' / (1 + g^2).
-        (g.atan(), dg / (1.0 + g * g))
+        // theta = atan(g): theta' = g' / (1 + g^2), theta'' = g'' / (1 +
+        // g^2) - 2 g g'^2 / (1 + g^2)^2.
+        let q = 1.0 + g * g;
+        (g.atan(), dg / q, ddg / q - 2.0 * g * dg * dg / (q * q))
     }
 }
 
@@ -368,6 +379,10 @@ pub struct Vehicle {
     state: VehicleState,
     heading0: f64,
     c_b_v: Matrix3<f64>,
+    /// The point that does not slide sideways (the rear axle's centre).
+    axle: GeoPoint,
+    /// The table's centre ahead of it along the vehicle's x, m.
+    imu_ahead_m: f64,
 }
 
 impl Vehicle {
@@ -382,9 +397,22 @@ impl Vehicle {
             },
             heading0: heading_deg.to_radians(),
             c_b_v,
+            axle: origin,
+            imu_ahead_m: 0.0,
         };
         v.state = v.derived(0.0, origin, 0.0);
         v
+    }
+
+    /// The same vehicle with the table's centre `m` metres ahead of the
+    /// rear axle's centre (the point the plan drives, which does not
+    /// slide sideways): in a turn the table then moves sideways at the
+    /// yaw rate times `m`, as an IMU ahead of a real car's rear axle does.
+    /// The axle starts at the origin.
+    pub fn with_imu_ahead_m(mut self, m: f64) -> Self {
+        self.imu_ahead_m = m;
+        self.state = self.derived(self.state.t_s, self.axle, self.state.distance_m);
+        self
     }
 
     /// The state now.
@@ -398,35 +426,61 @@ impl Vehicle {
     }
 
     /// Velocity, acceleration, attitude and rates from the integrated
-    /// speed, distance and heading.
-    fn derived(&self, t: f64, pos: GeoPoint, distance: f64) -> VehicleState {
+    /// speed, distance and heading, the rear axle at `axle`; the table's
+    /// centre [`Vehicle::with_imu_ahead_m`] ahead of it.
+    fn derived(&self, t: f64, axle: GeoPoint, distance: f64) -> VehicleState {
         let speed = self.drive.speed_at(t);
         let (a, _) = self.drive.accel_at(t);
-        let (r, _) = self.drive.yaw_at(t);
+        let (r, r_dot) = self.drive.yaw_at(t);
         let psi = self.heading0 + integral_at(&self.drive.yaw, t);
-        let (th, dth_dd) = self.drive.pitch_at(distance);
+        let (th, dth_dd, ddth_dd) = self.drive.pitch_curve(distance);
         let th_dot = dth_dd * speed;
+        let th_ddot = ddth_dd * speed * speed + dth_dd * a;
         let (sp, cp, st, ct) = (psi.sin(), psi.cos(), th.sin(), th.cos());
         let u = Vector3::new(ct * cp, ct * sp, -st);
         let du_dpsi = Vector3::new(-ct * sp, ct * cp, 0.0);
         let du_dth = Vector3::new(-st * cp, -st * sp, -ct);
-        VehicleState {
+        let w_nv_v = Vector3::new(-r * st, th_dot, r * ct);
+        let w_dot = Vector3::new(
+            -r_dot * st - r * ct * th_dot,
+            th_ddot,
+            r_dot * ct - r * st * th_dot,
+        );
+        let mut s = VehicleState {
             t_s: t,
-            pos,
+            pos: axle,
             v_n: u * speed,
             a_n: u * a + (du_dpsi * r + du_dth * th_dot) * speed,
             euler_rad: [0.0, th, psi.rem_euclid(std::f64::consts::TAU)],
-            w_nv_v: Vector3::new(-r * st, th_dot, r * ct),
+            w_nv_v,
             c_b_v: self.c_b_v,
             speed_mps: speed,
             distance_m: distance,
-        }
+        };
+        // The table's centre at `l_v` from the axle: rigid-body motion in
+        // the local level frame (its transport rate, under 1e-5 m/s at the
+        // arm, left out).
+        let l_v = Vector3::new(self.imu_ahead_m, 0.0, 0.0);
+        let c = s.c_v_n();
+        let l_n = c * l_v;
+        s.pos = GeoPoint {
+            lat_rad: axle.lat_rad + l_n.x / meridian(&axle),
+            lon_rad: axle.lon_rad + l_n.y / (transverse(&axle) * axle.lat_rad.cos()),
+            height_m: axle.height_m - l_n.z,
+        };
+        s.v_n += c * w_nv_v.cross(&l_v);
+        s.a_n += c * (w_dot.cross(&l_v) + w_nv_v.cross(&w_nv_v.cross(&l_v)));
+        s
     }
 
     /// Advances by `dt` s: speed and heading from the plan's exact
     /// integrals, distance and position by the midpoint rule.
     pub fn step(&mut self, dt: f64) {
-        let s0 = self.state;
+        let s0 = VehicleState {
+            pos: self.axle,
+            v_n: self.axle_velocity(),
+            ..self.state
+        };
         let t0 = s0.t_s;
         let tm = t0 + 0.5 * dt;
         let speed_m = self.drive.speed_at(tm);
@@ -449,7 +503,14 @@ impl Vehicle {
             height_m: s0.pos.height_m - dt * v_m.z,
         };
         let distance = s0.distance_m + dt * speed_m;
+        self.axle = pos;
         self.state = self.derived(t0 + dt, pos, distance);
+    }
+
+    /// The rear axle's velocity now, NED, m/s.
+    fn axle_velocity(&self) -> Vector3<f64> {
+        let l_v = Vector3::new(self.imu_ahead_m, 0.0, 0.0);
+        self.state.v_n - self.state.c_v_n() * self.state.w_nv_v.cross(&l_v)
     }
 }
 
@@ -674,30 +735,55 @@ mod tests {
 
     #[test]
     fn velocity_and_acceleration_agree() {
-        // a_n is v_n's derivative: central differences over 1 ms, to 1e-3
-        // m/s^2 (the midpoint rule's error at the raised-cosine edges).
-        let d = Drive::plan(DriveKind::City, 300.0, 5);
-        let mut v = Vehicle::new(
-            d,
-            GeoPoint::from_deg(30.5, 114.3, 20.0),
-            10.0,
-            Matrix3::identity(),
-        );
-        let mut prev = *v.state();
-        v.step(1e-3);
-        let mut cur = *v.state();
-        for _ in 0..300_000 {
+        // a_n is v_n's derivative and v_n the position's: central
+        // differences over 1 ms, to 1e-3 m/s^2 and 1e-4 m/s (the midpoint
+        // rule's error at the raised-cosine edges), at the rear axle and
+        // 1.5 m ahead of it.
+        for ahead in [0.0, 1.5] {
+            let d = Drive::plan(DriveKind::City, 300.0, 5);
+            let mut v = Vehicle::new(
+                d,
+                GeoPoint::from_deg(30.5, 114.3, 20.0),
+                10.0,
+                Matrix3::identity(),
+            )
+            .with_imu_ahead_m(ahead);
+            let mut prev = *v.state();
             v.step(1e-3);
-            let next = *v.state();
-            let fd = (next.v_n - prev.v_n) / 2e-3;
-            assert!(
-                (fd - cur.a_n).norm() < 1e-3,
-                "t {}: {fd:?} vs {:?}",
-                cur.t_s,
-                cur.a_n
-            );
-            prev = cur;
-            cur = next;
+            let mut cur = *v.state();
+            let mut sideways: f64 = 0.0;
+            for _ in 0..300_000 {
+                v.step(1e-3);
+                let next = *v.state();
+                let fd = (next.v_n - prev.v_n) / 2e-3;
+                assert!(
+                    (fd - cur.a_n).norm() < 1e-3,
+                    "ahead {ahead}, t {}: {fd:?} vs {:?}",
+                    cur.t_s,
+                    cur.a_n
+                );
+                let (p, q) = (&prev.pos, &next.pos);
+                let dp = Vector3::new(
+                    (q.lat_rad - p.lat_rad) * meridian(&cur.pos),
+                    (q.lon_rad - p.lon_rad) * transverse(&cur.pos) * cur.pos.lat_rad.cos(),
+                    p.height_m - q.height_m,
+                ) / 2e-3;
+                assert!(
+                    (dp - cur.v_n).norm() < 1e-4,
+                    "ahead {ahead}, t {}: {dp:?} vs {:?}",
+                    cur.t_s,
+                    cur.v_n
+                );
+                // Sideways in `v`: the yaw rate times the arm, exactly.
+                let v_v = cur.c_v_n().transpose() * cur.v_n;
+                let rate = cur.w_nv_v.z;
+                assert!((v_v.y - rate * ahead).abs() < 1e-9, "{v_v:?}");
+                sideways = sideways.max(v_v.y.abs());
+                prev = cur;
+                cur = next;
+            }
+            // The drive's turns (up to about 0.3 rad/s) move it sideways.
+            assert!((sideways > 0.1) == (ahead > 0.0), "{sideways}");
         }
     }
 }

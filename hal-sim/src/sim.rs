@@ -85,6 +85,9 @@ pub struct DriveSpec {
     /// The base's mounting in the vehicle: roll, pitch, yaw of `b` in
     /// the vehicle's frame (ZYX), deg; zeros: the base is the vehicle.
     pub mounting_deg: [f64; 3],
+    /// The table's centre ahead of the rear axle's, m
+    /// ([`Vehicle::with_imu_ahead_m`]).
+    pub imu_ahead_m: f64,
 }
 
 impl SimConfig {
@@ -558,6 +561,7 @@ pub fn simulate_observed(
             heading_deg,
             crate::drive::mounting(d.mounting_deg),
         )
+        .with_imu_ahead_m(d.imu_ahead_m)
     });
     let mut receiver = cfg
         .drive

@@ -111,6 +111,7 @@ pub fn config_mounted(
         },
         longitude_deg: 114.35,
         mounting_deg,
+        imu_ahead_m: 0.0,
     });
     c
 }

@@ -94,6 +94,11 @@ pub struct Args {
         requires = "drive"
     )]
     pub mounting_deg: Vec<f64>,
+    /// The IMU's distance ahead of the car's rear axle, m (the point that
+    /// does not slide sideways: in a turn the IMU moves sideways at the
+    /// yaw rate times this, as on a real car; 0: at the axle).
+    #[arg(long, default_value_t = 0.0, requires = "drive")]
+    pub imu_ahead_m: f64,
     /// Re-simulate this recording's own run (its sample times, encoder
     /// reads, temperatures, site and base) with the sensor of `--sim-model`:
     /// its twin. The scheme, site, sensor and drive flags are refused with
@@ -102,7 +107,7 @@ pub struct Args {
         "ideal", "effects", "list_effects", "sensor", "scheme", "axis", "rate_dps",
         "duration_s", "static_s", "lat_deg", "height_m", "heading_deg", "pitch_deg",
         "roll_deg", "gravity_mps2", "turns", "positions", "dwell_s", "drive",
-        "gnss_outages", "lon_deg", "mounting_deg",
+        "gnss_outages", "lon_deg", "mounting_deg", "imu_ahead_m",
     ])]
     pub like: Option<PathBuf>,
     /// The sensor model for `--like` (`rins-sim-model/1` TOML, as `rins
@@ -254,10 +259,17 @@ impl Args {
                     "--pitch-deg / --roll-deg do not apply to a drive: the road sets them"
                 ));
             }
+            if !self.imu_ahead_m.is_finite() || self.imu_ahead_m.abs() > 10.0 {
+                return Err(anyhow!(
+                    "--imu-ahead-m {}: a car's IMU is within 10 m of its rear axle",
+                    self.imu_ahead_m
+                ));
+            }
             c.drive = Some(hal_sim::sim::DriveSpec {
                 kind,
                 gnss,
                 longitude_deg: self.lon_deg,
+                imu_ahead_m: self.imu_ahead_m,
                 mounting_deg: match self.mounting_deg.as_slice() {
                     [] => [0.0; 3],
                     [r, p, y] => [*r, *p, *y],
