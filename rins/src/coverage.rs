@@ -292,7 +292,7 @@ pub fn study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
 pub const AIDED_SEEDS: u64 = 120;
 
 /// The rows of the aided study, in the order [`aided`] gives them.
-const AIDED_ROWS: [&str; 11] = [
+const AIDED_ROWS: [&str; 12] = [
     "antenna lever arm x (--estimate-lever-arm)",
     "antenna lever arm y (--estimate-lever-arm)",
     "antenna lever arm z (--estimate-lever-arm)",
@@ -304,17 +304,19 @@ const AIDED_ROWS: [&str; 11] = [
     "heading at a 20 s outage's end",
     "the car's forward axis in b: yaw (--vehicle car)",
     "the car's forward axis in b: pitch (--vehicle car)",
+    "the IMU's distance ahead of the rear axle (--vehicle car)",
 ];
 
 /// One drive's draws, by [`AIDED_ROWS`].
-type AidedDraws = [Option<Draw>; 11];
+type AidedDraws = [Option<Draw>; 12];
 
 /// The aided filter's estimates on one simulated city drive (NAV440 on
 /// the turning table, an RTK-grade receiver at 2 cm whose antenna sits at
 /// 1 m ahead and 0.8 m above while the recording says 0.4 m ahead and
 /// 0.3 m left; the fixes 0.1 s early on the IMU's clock; a 20 s outage at
 /// 60 s; the base mounted in the car at a rotation drawn per drive,
-/// [`crate::vehicle_study::mounting_deg`]): [`AIDED_ROWS`] (an unresolved
+/// [`crate::vehicle_study::mounting_deg`], and ahead of its rear axle by a
+/// distance drawn from the filter's prior, [`imu_ahead_m`]): [`AIDED_ROWS`] (an unresolved
 /// lever-arm component or a forward axis not found left out); none when
 /// the lever-arm pre-pass refuses.
 fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
@@ -331,9 +333,11 @@ fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
     );
     c.duration_s = 120.0;
     let truth_lever = [1.0, 0.0, -0.8];
+    let ahead = imu_ahead_m(seed);
     if let Some(d) = c.drive.as_mut() {
         (d.gnss.sigma_h_m, d.gnss.sigma_v_m) = (0.02, 0.04);
         d.gnss.antenna_b_m = Vector3::from(truth_lever);
+        d.imu_ahead_m = ahead;
     }
     let mut rec = simulate(&c, &mut |_| {}).map_err(|e| anyhow!("{e}"))?;
     let late = 0.1;
@@ -444,7 +448,20 @@ fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
         at_end(8),
         fwd(0),
         fwd(1),
+        forward.map(|f| Draw {
+            error: f.imu_ahead_m - ahead,
+            sigma: f.sigma_imu_ahead_m,
+        }),
     ]])
+}
+
+/// The IMU's distance ahead of the car's rear axle on drive `seed`, m:
+/// drawn from the filter's own prior ([`core_nav::vehicle::NHC_LEVER_M`]
+/// +- [`core_nav::vehicle::NHC_LEVER_PRIOR_SIGMA_M`]), so that a drive
+/// whose turns say little leaves an error its prior's sigma covers.
+fn imu_ahead_m(seed: u64) -> f64 {
+    let z = hal_sim::rng::Rng::new(seed, 61).normal();
+    core_nav::vehicle::NHC_LEVER_M + core_nav::vehicle::NHC_LEVER_PRIOR_SIGMA_M * z
 }
 
 /// The aided study over `seeds`; `done` is told after each drive.

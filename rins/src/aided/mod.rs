@@ -34,11 +34,12 @@ mod summary;
 pub mod vehicle;
 pub mod vertical;
 
-/// The host's error state: the board's `N` and three of its own (a car's
-/// mounting yaw and pitch, its odometer's scale: [`vehicle`]). A run that
+/// The host's error state: the board's `N` and four of its own (a car's
+/// mounting yaw and pitch, its odometer's scale, the IMU's distance ahead
+/// of its rear axle: [`vehicle`]). A run that
 /// uses none leaves them at zero variance and uncorrelated, so its other
 /// states' arithmetic is the board's, term for term.
-pub const HOST_M: usize = core_nav::eskf::N + 3;
+pub const HOST_M: usize = core_nav::eskf::N + 4;
 /// The aided navigator the host runs.
 pub type HostNav<T> = core_nav::aided::AidedNav<T, HOST_M>;
 pub use plots::{fixes_en, fixless, plots};
