@@ -25,7 +25,7 @@ pub fn config_commands(rec: &Recording, rate_radps: f64) -> Vec<Command> {
         Command::SetBase {
             roll_deg: m.roll_deg as f32,
             pitch_deg: m.pitch_deg as f32,
-            heading_deg: m.heading_deg as f32,
+            heading_deg: heading_for_board(m.heading_deg),
         },
         Command::SetScheme {
             kind: SchemeKind::Continuous,
@@ -37,6 +37,16 @@ pub fn config_commands(rec: &Recording, rate_radps: f64) -> Vec<Command> {
             lon_e7: aided.map_or(0, |mv| e7(mv.longitude_deg)),
         },
     ]
+}
+
+/// A heading (deg, any turn) as the board takes it: within +-180 deg
+/// (`protocol`'s `SetBase`), in f32. A recording's 0-360 deg heading
+/// above 180 (or a hair under 360, which rounds to 360 in f32) was sent
+/// as it was and refused with `BadBase`.
+fn heading_for_board(deg: f64) -> f32 {
+    let h = ((deg + 180.0).rem_euclid(360.0) - 180.0) as f32;
+    // -180 + a hair rounds to -180.0 in f32: inside.
+    h.clamp(-180.0, 180.0)
 }
 
 /// A byte link to a board.
@@ -430,6 +440,34 @@ mod tests {
             pvt: crate::ubx::NavPvt::parse(c, i, &p).unwrap(),
             host_utc_us,
             at,
+        }
+    }
+
+    #[test]
+    fn a_base_heading_of_any_turn_is_one_the_board_takes() {
+        // The held-back drive's 185 deg, a hair under a whole turn (a
+        // simulated body's roll wraps its heading to 359.99999999 deg),
+        // and the plain ones: each a SetBase the protocol accepts, the
+        // same direction to f32's precision.
+        for deg in [
+            0.0,
+            90.0,
+            180.0,
+            185.0,
+            359.999_999_99,
+            360.0,
+            -190.0,
+            725.0,
+        ] {
+            let mut rec = Recording::default();
+            rec.meta.heading_deg = deg;
+            let cmds = config_commands(&rec, 0.5);
+            let Some(Command::SetBase { heading_deg, .. }) = cmds.get(1).copied() else {
+                panic!("{cmds:?}");
+            };
+            assert_eq!(cmds[1].check(), Ok(()), "{deg}: {heading_deg}");
+            let turn = (f64::from(heading_deg) - deg).rem_euclid(360.0);
+            assert!(turn.min(360.0 - turn) < 1e-4, "{deg}: {heading_deg}");
         }
     }
 
