@@ -15,7 +15,8 @@
 //!   by every run of one table and scheme.
 //! - [`dual`]: dual-axis sequences on a tri-axial table.
 //! - [`drive`]: a vehicle under the table (city / highway drives, the ideal
-//!   sensor on a moving base, the GNSS receiver).
+//!   sensor on a moving base, the GNSS receiver); [`body`]: its body on
+//!   its suspension (roll, pitch and heave on the road and parked).
 //! - [`twin`]: a fitted sensor model and a recording's own run re-simulated
 //!   with it (the table's motion from the `recording` crate's encoder track).
 //! - [`icm42688`], [`mod@bench`], [`drivers`]: the ICM-42688-P register model,
@@ -24,6 +25,7 @@
 //!   (reader, writer, encoder track) is the `recording` crate.
 
 pub mod bench;
+pub mod body;
 pub use ::sensor::catalogue;
 pub mod drive;
 pub mod drivers;

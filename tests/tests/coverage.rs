@@ -36,9 +36,10 @@ fn the_books_coverage_table_is_the_studys_and_says_which_hold() {
 
 /// The aided study's rows that do not hold in the book's table (its 120
 /// drives: `rins results --only coverage-aided`), each with the reason in
-/// the book's chapter: the forward axis's pitch, whose sigma is 9.5x its
-/// errors' spread (cautious: the simulated car neither bounces nor slips,
-/// and the filter takes a real road's 0.1 m/s).
+/// the book's chapter: the forward axis's pitch and the IMU's distance
+/// ahead of the axle, whose sigmas are 4.2x and 4.4x their errors' spread
+/// (cautious: the simulated car bounces at a third of the 0.1 m/s the
+/// filter takes of a real road and does not slip).
 const OPEN_AIDED: &[&str] = &[
     "the car's forward axis in b: pitch (--vehicle car)",
     "the IMU's distance ahead of the rear axle (--vehicle car)",
