@@ -95,11 +95,10 @@ pub const I_MA: usize = 27;
 
 /// The most states a host may add after the board's `N` (an `Eskf<T, M>`
 /// with `N < M <= N + AUX_MAX`): random constants or random walks with no
-/// other dynamics (a vehicle's mounting, an odometer's scale, its tyres'
-/// slip), whose
+/// other dynamics (a vehicle's mounting, an odometer's scale), whose
 /// measurement rows the host makes ([`Eskf::update_scalar`]) and whose
 /// corrections it takes ([`Eskf::take_aux`]).
-pub const AUX_MAX: usize = 5;
+pub const AUX_MAX: usize = 4;
 
 /// Covariance of the error state.
 pub type Cov<T, const M: usize = N> = SMatrix<T, M, M>;
