@@ -246,23 +246,44 @@ pub fn ljung_box(w: &[f64], lags: usize) -> (f64, usize) {
 }
 
 /// Dispersion of a whitened series: its long-run variance over its
-/// variance, `1 + 2 sum_k (1 - k / (L + 1)) rho_k` (Bartlett weights, `L`
-/// lags; Newey and West 1987), at least 1. A white series gives 1; a series
-/// the noise model leaves coloured gives more, and the evidence of a slow
-/// regressor fitted on it is worth that many times less (quasi-likelihood).
+/// variance ([`long_run_covariance`] with `L` lags), at least 1. A white
+/// series gives 1; a series the noise model leaves coloured gives more,
+/// and the evidence of a slow regressor fitted on it is worth that many
+/// times less (quasi-likelihood).
 pub fn dispersion(w: &[f64], lags: usize) -> f64 {
     let n = w.len();
     if n <= lags + 1 {
         return 1.0;
     }
-    let mean = w.iter().sum::<f64>() / n as f64;
-    let c0: f64 = w.iter().map(|x| (x - mean).powi(2)).sum();
-    let mut lr = 1.0;
-    for h in 1..=lags {
-        let ch: f64 = (h..n).map(|i| (w[i] - mean) * (w[i - h] - mean)).sum();
-        lr += 2.0 * (1.0 - h as f64 / (lags as f64 + 1.0)) * ch / c0.max(1e-300);
+    let x = DMatrix::from_column_slice(n, 1, w);
+    let c0 = long_run_covariance(&x, 0)[(0, 0)];
+    (long_run_covariance(&x, lags)[(0, 0)] / c0.max(1e-300)).max(1.0)
+}
+
+/// The long-run covariance of a vector series about its mean (one sample
+/// a row of `x`), summed over its samples: `sum_h w_h (C_h + C_h^T)`,
+/// `C_h` the lag-`h` cross-products, `w_0 = 1/2` and `w_h = 1 - h / (L +
+/// 1)` (Bartlett weights, `L` lags; Newey and West 1987, Econometrica
+/// 55(3)). The covariance of the series' sum: for white samples the sum
+/// of their outer products; for samples correlated over a few lags, that
+/// many times more. Positive semi-definite for any data.
+pub fn long_run_covariance(x: &DMatrix<f64>, lags: usize) -> DMatrix<f64> {
+    let (n, m) = x.shape();
+    let mut d = x.clone();
+    for mut c in d.column_iter_mut() {
+        let mean = c.mean();
+        c.add_scalar_mut(-mean);
     }
-    lr.max(1.0)
+    let mut s = DMatrix::<f64>::zeros(m, m);
+    for h in 0..=lags.min(n.saturating_sub(1)) {
+        let w = match h {
+            0 => 0.5,
+            _ => 1.0 - h as f64 / (lags as f64 + 1.0),
+        };
+        let c = d.rows(h, n - h).transpose() * d.rows(0, n - h);
+        s += (&c + c.transpose()) * w;
+    }
+    s
 }
 
 /// Residual sum of squares of `y` on the columns `x` (least squares).

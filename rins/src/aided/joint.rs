@@ -6,11 +6,16 @@
 //! an arm along the direction of travel moves the antenna along the track
 //! as a clock offset does (by `v dt`), and only the speed's changes and
 //! the turns tell them apart. Here the NIS's Hessian over the offset and
-//! the resolved arm components together (central differences about the
+//! all the arm's components together (central differences about the
 //! separate estimates) gives one Newton step toward the joint least
-//! point and the marginal sigmas: each includes what the other absorbs.
+//! point and the marginal sigmas: each includes what the other absorbs,
+//! an unresolved component's too (held within a metre of as the
+//! recording gives it, [`super::lever::Prior`]), and what the fixes'
+//! correlated innovations take from the evidence
+//! ([`super::curvature::covariance`]).
 
-use super::lever::LeverEstimate;
+use super::curvature::{covariance, curvature, NisAt};
+use super::lever::{LeverEstimate, Prior};
 use super::offset::{fixes_nis, OffsetEstimate};
 use super::AidedOptions;
 use anyhow::{bail, Result};
@@ -23,9 +28,6 @@ pub const STEP_S: f64 = 0.04;
 /// steps).
 pub const STEP_M: f64 = 0.04;
 
-/// The fixes' NIS (total, per degree of freedom) at a parameter vector.
-type NisAt<'a> = dyn FnMut(&[f64]) -> Result<(f64, f64)> + 'a;
-
 /// How many times a Newton step that does not lower the NIS is halved
 /// before the separate estimates are kept.
 const BACKTRACKS: usize = 4;
@@ -37,13 +39,15 @@ pub struct JointEstimate {
     pub offset_s: f64,
     /// Its marginal 1-sigma, s (what the arm absorbs included).
     pub sigma_s: f64,
-    /// Its 1-sigma with the arm held at its value, s (its own curvature:
-    /// what the offset's pre-pass alone states).
+    /// Its 1-sigma with the arm held at its value, s (the conditional
+    /// one of the same covariance: what the offset's pre-pass alone
+    /// states, less its own widening).
     pub sigma_s_arm_held: f64,
     /// The antenna from the IMU in `b`, m.
     pub lever_b_m: [f64; 3],
     /// Each resolved component's marginal 1-sigma, m (`None`: not resolved
-    /// by the motion, kept as the arm's pre-pass left it).
+    /// by the motion, held near as the arm's pre-pass left it by its
+    /// prior).
     pub sigma_lever_m: [Option<f64>; 3],
     /// The offset's correlation with each resolved component.
     pub correlation: [Option<f64>; 3],
@@ -52,9 +56,13 @@ pub struct JointEstimate {
     pub moved: [f64; 4],
     /// Newton iterations made.
     pub iterations: usize,
+    /// How many times the model's variance (`2 H^-1`) the fixes'
+    /// correlated scores widened the widest direction
+    /// ([`super::curvature::covariance`]; 1: not at all).
+    pub widened: f64,
 }
 
-/// The parameters (the offset, then the resolved arm components) and
+/// The parameters (the offset, then the arm's components) and
 /// their stencil steps.
 struct Params {
     axes: Vec<usize>,
@@ -109,7 +117,14 @@ pub fn estimate(
 ) -> Result<JointEstimate> {
     let trials = opt.for_trials();
     let opt = &trials;
-    let axes: Vec<usize> = (0..3).filter(|i| lever.sigma_m[*i].is_some()).collect();
+    // Every axis: an unresolved one held to its value by a prior
+    // ([`Prior::unresolved`]), so the others' sigmas include what it absorbs.
+    let axes: Vec<usize> = (0..3).collect();
+    let resolved = lever.sigma_m.map(|s| s.is_some());
+    let held = Prior::unresolved(&lever.b_m, resolved);
+    let prior = Prior {
+        held: held.held.iter().map(|(i, c, s)| (i + 1, *c, *s)).collect(),
+    };
     let mut x = vec![offset.offset_s];
     x.extend(axes.iter().map(|i| lever.b_m[*i]));
     let start = x.clone();
@@ -120,32 +135,50 @@ pub fn estimate(
         lever_b_m: Some(lever.b_m),
         ..opt.clone()
     };
-    let mut nis = |x: &[f64]| fixes_nis(rec, &p.options(&opt, x));
+    let mut nis = |x: &[f64]| {
+        let mut f = fixes_nis(rec, &p.options(&opt, x))?;
+        f.total += prior.at(x);
+        Ok(f)
+    };
     for it in 0..=ITERATIONS {
         progress(it as f64 / (ITERATIONS + 1) as f64);
-        let (f0, per) = nis(&x)?;
-        let (hess, grad) = curvature(&x, &p.h, f0, &mut nis)?;
-        let Some(ch) = hess.clone().cholesky() else {
+        let f0 = nis(&x)?;
+        let c = curvature(&x, &p.h, &f0, &mut nis)?;
+        let Some((cov, widened)) = covariance(&c, f0.per_dof) else {
             bail!("the fixes' NIS is not a bowl over the offset and the arm together: they are not resolved together");
         };
-        let inv = ch.inverse();
-        let cov = &inv * (2.0 * per.max(1.0));
-        let newton = -&inv * &grad;
+        let newton = -c
+            .hess
+            .clone()
+            .cholesky()
+            .map_or(c.grad.clone(), |ch| ch.solve(&c.grad));
         let converged =
             (0..x.len()).all(|k| newton[k].abs() < CONVERGED_SIGMAS * cov[(k, k)].sqrt());
         let step = match converged || it == ITERATIONS {
             true => None,
-            false => descend(&x, &newton, &p.h, f0, &mut nis)?,
+            false => descend(&x, &newton, &p.h, f0.total, &mut nis)?,
         };
         match step {
             Some(s) => x = s,
             None => {
                 progress(1.0);
-                return Ok(report(&p, lever, &x, &start, &cov, &hess, per, it));
+                let at = Least {
+                    x: &x,
+                    cov: &cov,
+                    widened,
+                };
+                return Ok(report(&p, lever, &at, &start, it));
             }
         }
     }
     bail!("no Newton iteration was made")
+}
+
+/// The least point and the NIS's shape there.
+struct Least<'a> {
+    x: &'a [f64],
+    cov: &'a DMatrix<f64>,
+    widened: f64,
 }
 
 /// The damped step from `x` along `newton` (each component clamped to
@@ -165,7 +198,7 @@ fn descend(
             .zip(newton.iter().zip(h))
             .map(|(v, (s, hi))| v + scale * s.clamp(-MAX_STEP * hi, MAX_STEP * hi))
             .collect();
-        if nis(&to)?.0 < f0 {
+        if nis(&to)?.total < f0 {
             return Ok(Some(to));
         }
         scale *= 0.5;
@@ -173,74 +206,43 @@ fn descend(
     Ok(None)
 }
 
-/// The estimate at the least point `x` (moved from `start`), with the
-/// NIS's covariance `cov` and Hessian `hess` there.
-#[allow(clippy::too_many_arguments)]
+/// The estimate at the least point `at.x` (moved from `start`).
 fn report(
     p: &Params,
     lever: &LeverEstimate,
-    x: &[f64],
+    at: &Least,
     start: &[f64],
-    cov: &DMatrix<f64>,
-    hess: &DMatrix<f64>,
-    per: f64,
     iterations: usize,
 ) -> JointEstimate {
+    let (x, cov) = (at.x, at.cov);
     let sd = |k: usize| cov[(k, k)].sqrt();
+    // The conditional variance: the inverse of the stated precision's
+    // diagonal (the marginal's counterpart in the same covariance).
+    let held = cov
+        .clone()
+        .try_inverse()
+        .map_or(f64::NAN, |i| 1.0 / i[(0, 0)]);
     let mut out = JointEstimate {
         offset_s: x[0],
         sigma_s: sd(0),
-        sigma_s_arm_held: (2.0 * per.max(1.0) / hess[(0, 0)]).sqrt(),
+        sigma_s_arm_held: held.sqrt(),
         lever_b_m: lever.b_m,
         sigma_lever_m: [None; 3],
         correlation: [None; 3],
         moved: [x[0] - start[0], 0.0, 0.0, 0.0],
         iterations,
+        widened: at.widened,
     };
     for (a, &i) in p.axes.iter().enumerate() {
         let k = a + 1;
         out.lever_b_m[i] = x[k];
-        out.sigma_lever_m[i] = Some(sd(k));
-        out.correlation[i] = Some(cov[(0, k)] / (sd(0) * sd(k)));
         out.moved[i + 1] = x[k] - start[k];
+        if lever.sigma_m[i].is_some() {
+            out.sigma_lever_m[i] = Some(sd(k));
+            out.correlation[i] = Some(cov[(0, k)] / (sd(0) * sd(k)));
+        }
     }
     out
-}
-
-/// The Hessian and gradient of the total NIS at `x` (value `f0`) by
-/// central differences of steps `h` (`nis` at a parameter vector).
-pub(crate) fn curvature(
-    x: &[f64],
-    h: &[f64],
-    f0: f64,
-    nis: &mut NisAt,
-) -> Result<(DMatrix<f64>, DVector<f64>)> {
-    let n = x.len();
-    let mut f = |d: &[(usize, f64)]| -> Result<f64> {
-        let mut y = x.to_vec();
-        for (i, s) in d {
-            if let (Some(v), Some(hi)) = (y.get_mut(*i), h.get(*i)) {
-                *v += s * hi;
-            }
-        }
-        Ok(nis(&y)?.0)
-    };
-    let mut hess = DMatrix::<f64>::zeros(n, n);
-    let mut grad = DVector::<f64>::zeros(n);
-    for (i, &hi) in h.iter().enumerate() {
-        let (up, down) = (f(&[(i, 1.0)])?, f(&[(i, -1.0)])?);
-        hess[(i, i)] = (up + down - 2.0 * f0) / (hi * hi);
-        grad[i] = (up - down) / (2.0 * hi);
-        for (j, &hj) in h.iter().enumerate().skip(i + 1) {
-            let pp = f(&[(i, 1.0), (j, 1.0)])?;
-            let pm = f(&[(i, 1.0), (j, -1.0)])?;
-            let mp = f(&[(i, -1.0), (j, 1.0)])?;
-            let mm = f(&[(i, -1.0), (j, -1.0)])?;
-            hess[(i, j)] = (pp - pm - mp + mm) / (4.0 * hi * hj);
-            hess[(j, i)] = hess[(i, j)];
-        }
-    }
-    Ok((hess, grad))
 }
 
 /// A run without `--estimate-time-offset` whose clocks the fixes point
@@ -292,11 +294,15 @@ impl JointEstimate {
             .collect::<Vec<_>>()
             .join(", ");
         format!(
-            "estimated together: time offset {:+.3} +- {:.3} s ({:.3} s with the arm held), lever arm {arm} m in b\n  the offset's correlation with the arm: {}\n",
+            "estimated together: time offset {:+.3} +- {:.3} s ({:.3} s with the arm held), lever arm {arm} m in b\n  the offset's correlation with the arm: {}; {}\n",
             self.offset_s,
             self.sigma_s,
             self.sigma_s_arm_held,
             if corr.is_empty() { "none resolved".into() } else { corr },
+            match self.widened > 1.0 {
+                true => format!("the fixes' correlated innovations widen the sigmas up to {:.1}x", self.widened.sqrt()),
+                false => "the fixes' innovations no more correlated than the model says".into(),
+            },
         )
     }
 }

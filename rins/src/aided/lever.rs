@@ -8,7 +8,7 @@
 //! the NIS flat along it: that component is kept as given and said to be
 //! unresolved.
 
-use super::offset::{fixes_nis, least};
+use super::offset::{fixes_nis, least, FixesNis};
 use super::AidedOptions;
 use anyhow::{bail, Result};
 use recording::Recording;
@@ -103,12 +103,13 @@ pub fn estimate(
         };
         let (fine, s, _) = nis.line(&arm, axis, rough, FINE_M, 5)?;
         resolved[axis] = fine.is_finite() && s < SPAN_M;
-        if resolved[axis] {
-            arm[axis] = fine;
-        }
+        // An axis a later pass finds flat goes back to as given: its
+        // earlier least was the other axes' errors, not its arm (a city
+        // drive's antenna height found at +0.8 m for -0.8, then flat).
+        arm[axis] = if resolved[axis] { fine } else { given[axis] };
     }
-    let nis_per_dof = [nis.at(&given)?.1, nis.at(&arm)?.1];
-    let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
+    let nis_per_dof = [nis.at(&given)?.per_dof, nis.at(&arm)?.per_dof];
+    let sigma_m = nis.marginal_sigmas(&arm, &given, resolved)?;
     Ok(LeverEstimate {
         given_b_m: given,
         b_m: arm,
@@ -174,7 +175,7 @@ struct Nis<'a> {
 
 impl Nis<'_> {
     /// The fixes' NIS (total, per degree of freedom) with arm `l`.
-    fn at(&mut self, l: &[f64; 3]) -> Result<(f64, f64)> {
+    fn at(&mut self, l: &[f64; 3]) -> Result<FixesNis> {
         let o = AidedOptions {
             lever_b_m: Some(*l),
             ..self.opt.clone()
@@ -199,8 +200,8 @@ impl Nis<'_> {
         for k in -n..=n {
             let mut l = *arm;
             l[axis] = centre + k as f64 * step;
-            let (total, per) = self.at(&l)?;
-            grid.push((l[axis], total, per));
+            let f = self.at(&l)?;
+            grid.push((l[axis], f.total, f.per_dof));
         }
         let (x, s) = least(&grid, step).unwrap_or((f64::NAN, f64::INFINITY));
         Ok((x, s, grid))
@@ -226,13 +227,13 @@ impl Nis<'_> {
             let Some(&(x, y, _)) = edge else { break };
             let mut l = *arm;
             l[axis] = x + if down { -COARSE_M } else { COARSE_M };
-            let (total, per) = self.at(&l)?;
+            let f = self.at(&l)?;
             if down {
-                grid.insert(0, (l[axis], total, per));
+                grid.insert(0, (l[axis], f.total, f.per_dof));
             } else {
-                grid.push((l[axis], total, per));
+                grid.push((l[axis], f.total, f.per_dof));
             }
-            if total > y {
+            if f.total > y {
                 let (v, _) = least(grid, COARSE_M).unwrap_or((f64::NAN, f64::INFINITY));
                 if v.is_finite() {
                     return Ok(v);
@@ -245,32 +246,79 @@ impl Nis<'_> {
         )
     }
 
-    /// The resolved axes' marginal 1-sigmas: `2 H^-1`, `H` the total NIS's
-    /// Hessian at `arm` by central differences of two fine steps, scaled
-    /// by the NIS per degree of freedom there when above 1. None for an
-    /// unresolved axis, and for all when the resolved block is not
+    /// The resolved axes' marginal 1-sigmas ([`super::curvature`]: the
+    /// total NIS's Hessian at `arm` over all three axes by central
+    /// differences of two fine steps, the unresolved ones held to the
+    /// `given` arm by [`Prior::unresolved`]; the model's `2 H^-1` widened
+    /// by the fixes' correlated scores). Each includes what the others
+    /// absorb, an unresolved one's too (an antenna's height held 1.6 m
+    /// wrong put a city drive's y 3.5 of its conditional sigmas off). None
+    /// for an unresolved axis, and for all when the Hessian is not
     /// positive definite (the NIS is not a bowl there).
-    fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
-        let axes: Vec<usize> = (0..3).filter(|i| resolved[*i]).collect();
-        let (f0, per) = self.at(arm)?;
-        let x: Vec<f64> = axes.iter().map(|i| arm[*i]).collect();
-        let h = vec![2.0 * FINE_M; axes.len()];
+    fn marginal_sigmas(
+        &mut self,
+        arm: &[f64; 3],
+        given: &[f64; 3],
+        resolved: [bool; 3],
+    ) -> Result<[Option<f64>; 3]> {
+        let prior = Prior::unresolved(given, resolved);
+        let f0 = self.at(arm)?;
+        let h = vec![2.0 * FINE_M; 3];
         let mut nis = |y: &[f64]| {
             let mut l = *arm;
-            for (i, v) in axes.iter().zip(y) {
-                l[*i] = *v;
+            for (c, v) in l.iter_mut().zip(y) {
+                *c = *v;
             }
-            self.at(&l)
+            let mut f = self.at(&l)?;
+            f.total += prior.at(y);
+            Ok(f)
         };
-        let (hess, _) = super::joint::curvature(&x, &h, f0, &mut nis)?;
+        let mut f0p = f0.clone();
+        f0p.total += prior.at(arm);
+        let c = super::curvature::curvature(arm, &h, &f0p, &mut nis)?;
         let mut out = [None; 3];
-        if let Some(ch) = hess.cholesky() {
-            let cov = ch.inverse() * (2.0 * per.max(1.0));
-            for (a, &i) in axes.iter().enumerate() {
-                out[i] = Some(cov[(a, a)].sqrt());
+        if let Some((cov, _)) = super::curvature::covariance(&c, f0.per_dof) {
+            for (i, o) in out.iter_mut().enumerate() {
+                if resolved[i] {
+                    *o = Some(cov[(i, i)].sqrt());
+                }
             }
         }
         Ok(out)
+    }
+}
+
+/// How far an unresolved arm component is from as given, m (1-sigma):
+/// the first search's span, within which the recording is taken to place
+/// its antenna ([`SPAN_M`]).
+pub const UNRESOLVED_PRIOR_M: f64 = SPAN_M;
+
+/// A Gaussian prior on some parameters, as its `-2 log` density (a term
+/// of the NIS): `((x - centre) / sigma)^2` summed over those it holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Prior {
+    /// (parameter index, centre, 1-sigma).
+    pub held: Vec<(usize, f64, f64)>,
+}
+
+impl Prior {
+    /// The arm's unresolved components (`resolved` false), each at its
+    /// `given` value within [`UNRESOLVED_PRIOR_M`]; parameter `i` is axis
+    /// `i`.
+    pub fn unresolved(given: &[f64; 3], resolved: [bool; 3]) -> Self {
+        let held = (0..3)
+            .filter(|i| !resolved[*i])
+            .map(|i| (i, given[i], UNRESOLVED_PRIOR_M))
+            .collect();
+        Self { held }
+    }
+
+    /// Its `-2 log` density at `x`.
+    pub fn at(&self, x: &[f64]) -> f64 {
+        self.held
+            .iter()
+            .map(|(i, c, s)| x.get(*i).map_or(0.0, |v| ((v - c) / s).powi(2)))
+            .sum()
     }
 }
 

@@ -22,6 +22,7 @@ use recording::Recording;
 use crate::nav::TrajRow;
 
 pub mod align;
+pub mod curvature;
 pub mod fixvel;
 pub mod joint;
 pub mod learn;

@@ -5,8 +5,10 @@
 //! traces a parabola whose minimum is the offset and whose curvature its
 //! 1-sigma (a change of 1 in the chi-square), scaled by the NIS's own
 //! mean per degree of freedom when the filter is overconfident (a
-//! likelihood that is too sharp gives too small a sigma).
+//! likelihood that is too sharp gives too small a sigma), and widened
+//! where the fixes' innovations are correlated ([`super::curvature`]).
 
+use super::curvature::{covariance, Curvature};
 use super::{navigate, AidedOptions};
 use anyhow::{bail, Result};
 use recording::Recording;
@@ -41,16 +43,16 @@ pub fn estimate(
     let trials = opt.for_trials();
     let opt = &trials;
     let n = (span_s / step_s).round() as i64;
-    let mut grid = vec![];
+    let mut runs = vec![];
     for k in -n..=n {
         let o = AidedOptions {
             time_offset_s: opt.time_offset_s + k as f64 * step_s,
             ..opt.clone()
         };
-        let (total, per) = fixes_nis(rec, &o)?;
-        grid.push((o.time_offset_s, total, per));
+        runs.push((o.time_offset_s, fixes_nis(rec, &o)?));
         progress((k + n + 1) as f64 / (2 * n + 1) as f64);
     }
+    let grid: Vec<(f64, f64, f64)> = runs.iter().map(|(t, f)| (*t, f.total, f.per_dof)).collect();
     let Some((offset_s, sigma_s)) = least(&grid, step_s) else {
         bail!("no offset estimated: an empty grid");
     };
@@ -59,9 +61,23 @@ pub fn estimate(
     }
     Ok(OffsetEstimate {
         offset_s,
-        sigma_s,
+        sigma_s: widened(&runs, step_s).map_or(sigma_s, |v| v.sqrt().max(sigma_s)),
         grid,
     })
+}
+
+/// The offset's variance at the grid's least run with its neighbours'
+/// ([`Curvature::along_line`]: the model's, widened by the fixes'
+/// correlated scores); `None` at an edge or where the NIS does not curve.
+fn widened(runs: &[(f64, FixesNis)], step_s: f64) -> Option<f64> {
+    let best = (0..runs.len()).min_by(|a, b| runs[*a].1.total.total_cmp(&runs[*b].1.total))?;
+    let (down, f0, up) = (
+        &runs.get(best.checked_sub(1)?)?.1,
+        &runs[best].1,
+        &runs.get(best + 1)?.1,
+    );
+    let c = Curvature::along_line(down, f0, up, step_s);
+    covariance(&c, f0.per_dof).map(|(v, _)| v[(0, 0)])
 }
 
 /// The fixes' NIS over a pre-pass run of `opt` (total, per degree of
@@ -74,7 +90,7 @@ pub fn estimate(
 ///
 /// # Errors
 /// A run that fails, or no fix used.
-pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<(f64, f64)> {
+pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<FixesNis> {
     let o = AidedOptions {
         gate_sigma: UNGATED,
         gnss_velocity: false,
@@ -88,7 +104,24 @@ pub fn fixes_nis(rec: &Recording, opt: &AidedOptions) -> Result<(f64, f64)> {
         bail!("no fix was used: nothing can be estimated from the fixes");
     }
     let total = used.iter().map(|x| x.1).sum::<f64>();
-    Ok((total, total / dof))
+    let stamp_us = |t: f64| ((t - o.time_offset_s) * 1e6).round() as i64;
+    Ok(FixesNis {
+        total,
+        per_dof: total / dof,
+        each: used.iter().map(|x| (stamp_us(x.0), x.1)).collect(),
+    })
+}
+
+/// The fixes' NIS over one pre-pass run ([`fixes_nis`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FixesNis {
+    /// Summed over the fixes used.
+    pub total: f64,
+    /// Per degree of freedom.
+    pub per_dof: f64,
+    /// Each used fix's: (its stamp on the receiver's clock, us; its NIS).
+    /// The stamp names the same fix in runs of different offsets.
+    pub each: Vec<(i64, f64)>,
 }
 
 /// The least point of an evenly spaced grid of (value, total NIS, NIS per
