@@ -159,6 +159,43 @@ pub fn covariance(c: &Curvature, per: f64) -> Option<(DMatrix<f64>, f64)> {
     Some((&l * v * d * v.transpose() * l.transpose(), widened))
 }
 
+/// The covariance of the parameters `estimated` (a flag per parameter of
+/// `c`) found with the others held at values known to `held_sigma` each
+/// (Schmidt's consider covariance): [`covariance`] of their own block,
+/// plus what the held ones' errors move them by, `A P Aᵀ` with `A =
+/// H_ee^-1 H_eh` and `P` the held ones' variance. An antenna height the
+/// motion does not resolve, held where the recording puts it, still bends
+/// the arm's other components and the clock found with it. `None` as
+/// [`covariance`].
+pub fn consider(
+    c: &Curvature,
+    per: f64,
+    estimated: &[bool],
+    held_sigma: f64,
+) -> Option<(DMatrix<f64>, f64)> {
+    let e: Vec<usize> = (0..estimated.len()).filter(|i| estimated[*i]).collect();
+    let h: Vec<usize> = (0..estimated.len()).filter(|i| !estimated[*i]).collect();
+    let own = Curvature {
+        hess: c.hess.select_rows(&e).select_columns(&e),
+        grad: c.grad.select_rows(&e),
+        scores: c
+            .scores
+            .as_ref()
+            .map(|b| b.select_rows(&e).select_columns(&e)),
+    };
+    let (cov, widened) = covariance(&own, per)?;
+    if h.is_empty() {
+        return Some((cov, widened));
+    }
+    let a = own
+        .hess
+        .clone()
+        .cholesky()?
+        .solve(&c.hess.select_rows(&e).select_columns(&h));
+    let moved = &a * a.transpose() * (held_sigma * held_sigma);
+    Some((cov + moved, widened))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

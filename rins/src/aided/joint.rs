@@ -6,16 +6,16 @@
 //! an arm along the direction of travel moves the antenna along the track
 //! as a clock offset does (by `v dt`), and only the speed's changes and
 //! the turns tell them apart. Here the NIS's Hessian over the offset and
-//! all the arm's components together (central differences about the
+//! the resolved arm components together (central differences about the
 //! separate estimates) gives one Newton step toward the joint least
 //! point and the marginal sigmas: each includes what the other absorbs,
-//! an unresolved component's too (held within a metre of as the
-//! recording gives it, [`super::lever::Prior`]), and what the fixes'
+//! what an unresolved component held as given bends them by (within a
+//! metre, [`super::lever::UNRESOLVED_SIGMA_M`]), and what the fixes'
 //! correlated innovations take from the evidence
-//! ([`super::curvature::covariance`]).
+//! ([`super::curvature::consider`]).
 
-use super::curvature::{covariance, curvature, NisAt};
-use super::lever::{LeverEstimate, Prior};
+use super::curvature::{consider, covariance, curvature, NisAt};
+use super::lever::{LeverEstimate, UNRESOLVED_SIGMA_M};
 use super::offset::{fixes_nis, OffsetEstimate};
 use super::AidedOptions;
 use anyhow::{bail, Result};
@@ -46,8 +46,7 @@ pub struct JointEstimate {
     /// The antenna from the IMU in `b`, m.
     pub lever_b_m: [f64; 3],
     /// Each resolved component's marginal 1-sigma, m (`None`: not resolved
-    /// by the motion, held near as the arm's pre-pass left it by its
-    /// prior).
+    /// by the motion, kept as the arm's pre-pass left it).
     pub sigma_lever_m: [Option<f64>; 3],
     /// The offset's correlation with each resolved component.
     pub correlation: [Option<f64>; 3],
@@ -62,7 +61,7 @@ pub struct JointEstimate {
     pub widened: f64,
 }
 
-/// The parameters (the offset, then the arm's components) and
+/// The parameters (the offset, then the resolved arm components) and
 /// their stencil steps.
 struct Params {
     axes: Vec<usize>,
@@ -117,14 +116,7 @@ pub fn estimate(
 ) -> Result<JointEstimate> {
     let trials = opt.for_trials();
     let opt = &trials;
-    // Every axis: an unresolved one held to its value by a prior
-    // ([`Prior::unresolved`]), so the others' sigmas include what it absorbs.
-    let axes: Vec<usize> = (0..3).collect();
-    let resolved = lever.sigma_m.map(|s| s.is_some());
-    let held = Prior::unresolved(&lever.b_m, resolved);
-    let prior = Prior {
-        held: held.held.iter().map(|(i, c, s)| (i + 1, *c, *s)).collect(),
-    };
+    let axes: Vec<usize> = (0..3).filter(|i| lever.sigma_m[*i].is_some()).collect();
     let mut x = vec![offset.offset_s];
     x.extend(axes.iter().map(|i| lever.b_m[*i]));
     let start = x.clone();
@@ -135,11 +127,7 @@ pub fn estimate(
         lever_b_m: Some(lever.b_m),
         ..opt.clone()
     };
-    let mut nis = |x: &[f64]| {
-        let mut f = fixes_nis(rec, &p.options(&opt, x))?;
-        f.total += prior.at(x);
-        Ok(f)
-    };
+    let mut nis = |x: &[f64]| fixes_nis(rec, &p.options(&opt, x));
     for it in 0..=ITERATIONS {
         progress(it as f64 / (ITERATIONS + 1) as f64);
         let f0 = nis(&x)?;
@@ -161,6 +149,10 @@ pub fn estimate(
         match step {
             Some(s) => x = s,
             None => {
+                let (cov, widened) = match p.axes.len() {
+                    3 => (cov, widened),
+                    _ => held_too(rec, &opt, &p, &x, &f0)?,
+                };
                 progress(1.0);
                 let at = Least {
                     x: &x,
@@ -172,6 +164,33 @@ pub fn estimate(
         }
     }
     bail!("no Newton iteration was made")
+}
+
+/// The covariance at the least point `x` (`f0` there) with what the
+/// unresolved arm components, held as the arm's pre-pass left them, bend
+/// the offset and the resolved ones by ([`super::curvature::consider`]
+/// over the NIS's Hessian in the offset and all three components).
+fn held_too(
+    rec: &Recording,
+    opt: &AidedOptions,
+    p: &Params,
+    x: &[f64],
+    f0: &super::offset::FixesNis,
+) -> Result<(DMatrix<f64>, f64)> {
+    let all = Params {
+        axes: vec![0, 1, 2],
+        h: vec![STEP_S, STEP_M, STEP_M, STEP_M],
+    };
+    let arm = p.options(opt, x).lever_b_m.unwrap_or([0.0; 3]);
+    let xa = [x[0], arm[0], arm[1], arm[2]];
+    let mut nis = |y: &[f64]| fixes_nis(rec, &all.options(opt, y));
+    let c = curvature(&xa, &all.h, f0, &mut nis)?;
+    let mut estimated = vec![true];
+    estimated.extend((0..3).map(|i| p.axes.contains(&i)));
+    let Some(found) = consider(&c, f0.per_dof, &estimated, UNRESOLVED_SIGMA_M) else {
+        bail!("the fixes' NIS is not a bowl over the offset and the resolved arm together");
+    };
+    Ok(found)
 }
 
 /// The least point and the NIS's shape there.
@@ -236,11 +255,9 @@ fn report(
     for (a, &i) in p.axes.iter().enumerate() {
         let k = a + 1;
         out.lever_b_m[i] = x[k];
+        out.sigma_lever_m[i] = Some(sd(k));
+        out.correlation[i] = Some(cov[(0, k)] / (sd(0) * sd(k)));
         out.moved[i + 1] = x[k] - start[k];
-        if lever.sigma_m[i].is_some() {
-            out.sigma_lever_m[i] = Some(sd(k));
-            out.correlation[i] = Some(cov[(0, k)] / (sd(0) * sd(k)));
-        }
     }
     out
 }

@@ -109,7 +109,7 @@ pub fn estimate(
         arm[axis] = if resolved[axis] { fine } else { given[axis] };
     }
     let nis_per_dof = [nis.at(&given)?.per_dof, nis.at(&arm)?.per_dof];
-    let sigma_m = nis.marginal_sigmas(&arm, &given, resolved)?;
+    let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
     Ok(LeverEstimate {
         given_b_m: given,
         b_m: arm,
@@ -248,20 +248,17 @@ impl Nis<'_> {
 
     /// The resolved axes' marginal 1-sigmas ([`super::curvature`]: the
     /// total NIS's Hessian at `arm` over all three axes by central
-    /// differences of two fine steps, the unresolved ones held to the
-    /// `given` arm by [`Prior::unresolved`]; the model's `2 H^-1` widened
-    /// by the fixes' correlated scores). Each includes what the others
-    /// absorb, an unresolved one's too (an antenna's height held 1.6 m
-    /// wrong put a city drive's y 3.5 of its conditional sigmas off). None
-    /// for an unresolved axis, and for all when the Hessian is not
+    /// differences of two fine steps; the model's `2 H^-1` over the
+    /// resolved ones, widened by the fixes' correlated scores, and what
+    /// the unresolved ones, held as given to [`UNRESOLVED_SIGMA_M`], bend
+    /// them by ([`super::curvature::consider`]: an antenna height held
+    /// 1.6 m wrong put a city drive's y 3.1 of its sigmas off). None for
+    /// an unresolved axis, and for all when the resolved block is not
     /// positive definite (the NIS is not a bowl there).
-    fn marginal_sigmas(
-        &mut self,
-        arm: &[f64; 3],
-        given: &[f64; 3],
-        resolved: [bool; 3],
-    ) -> Result<[Option<f64>; 3]> {
-        let prior = Prior::unresolved(given, resolved);
+    fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
+        if !resolved.contains(&true) {
+            return Ok([None; 3]);
+        }
         let f0 = self.at(arm)?;
         let h = vec![2.0 * FINE_M; 3];
         let mut nis = |y: &[f64]| {
@@ -269,58 +266,25 @@ impl Nis<'_> {
             for (c, v) in l.iter_mut().zip(y) {
                 *c = *v;
             }
-            let mut f = self.at(&l)?;
-            f.total += prior.at(y);
-            Ok(f)
+            self.at(&l)
         };
-        let mut f0p = f0.clone();
-        f0p.total += prior.at(arm);
-        let c = super::curvature::curvature(arm, &h, &f0p, &mut nis)?;
+        let c = super::curvature::curvature(arm, &h, &f0, &mut nis)?;
         let mut out = [None; 3];
-        if let Some((cov, _)) = super::curvature::covariance(&c, f0.per_dof) {
-            for (i, o) in out.iter_mut().enumerate() {
-                if resolved[i] {
-                    *o = Some(cov[(i, i)].sqrt());
-                }
+        let found = super::curvature::consider(&c, f0.per_dof, &resolved, UNRESOLVED_SIGMA_M);
+        if let Some((cov, _)) = found {
+            let axes = (0..3).filter(|i| resolved[*i]);
+            for (a, i) in axes.enumerate() {
+                out[i] = Some(cov[(a, a)].sqrt());
             }
         }
         Ok(out)
     }
 }
 
-/// How far an unresolved arm component is from as given, m (1-sigma):
-/// the first search's span, within which the recording is taken to place
-/// its antenna ([`SPAN_M`]).
-pub const UNRESOLVED_PRIOR_M: f64 = SPAN_M;
-
-/// A Gaussian prior on some parameters, as its `-2 log` density (a term
-/// of the NIS): `((x - centre) / sigma)^2` summed over those it holds.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Prior {
-    /// (parameter index, centre, 1-sigma).
-    pub held: Vec<(usize, f64, f64)>,
-}
-
-impl Prior {
-    /// The arm's unresolved components (`resolved` false), each at its
-    /// `given` value within [`UNRESOLVED_PRIOR_M`]; parameter `i` is axis
-    /// `i`.
-    pub fn unresolved(given: &[f64; 3], resolved: [bool; 3]) -> Self {
-        let held = (0..3)
-            .filter(|i| !resolved[*i])
-            .map(|i| (i, given[i], UNRESOLVED_PRIOR_M))
-            .collect();
-        Self { held }
-    }
-
-    /// Its `-2 log` density at `x`.
-    pub fn at(&self, x: &[f64]) -> f64 {
-        self.held
-            .iter()
-            .map(|(i, c, s)| x.get(*i).map_or(0.0, |v| ((v - c) / s).powi(2)))
-            .sum()
-    }
-}
+/// How far an unresolved arm component may be from as given, m
+/// (1-sigma): the first search's span, within which the recording is
+/// taken to place its antenna ([`SPAN_M`]).
+pub const UNRESOLVED_SIGMA_M: f64 = SPAN_M;
 
 /// The arm the fixes' NIS finds for a run that showed a symptom its clocks
 /// were cleared of ([`super::offset::hint`]).
