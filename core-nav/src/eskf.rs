@@ -95,10 +95,11 @@ pub const I_MA: usize = 27;
 
 /// The most states a host may add after the board's `N` (an `Eskf<T, M>`
 /// with `N < M <= N + AUX_MAX`): random constants or random walks with no
-/// other dynamics (a vehicle's mounting, an odometer's scale), whose
+/// other dynamics (a vehicle's mounting, an odometer's scale, its tyres'
+/// slip), whose
 /// measurement rows the host makes ([`Eskf::update_scalar`]) and whose
 /// corrections it takes ([`Eskf::take_aux`]).
-pub const AUX_MAX: usize = 4;
+pub const AUX_MAX: usize = 5;
 
 /// Covariance of the error state.
 pub type Cov<T, const M: usize = N> = SMatrix<T, M, M>;

@@ -30,9 +30,18 @@ use nalgebra::{Matrix3, Vector3};
 /// bounce on its suspension (1-1.5 Hz at a centimetre: 0.06-0.09 m/s) and
 /// its tyres' slip in gentle driving.
 pub const NHC_SIGMA_MPS: f64 = 0.1;
-/// The tyres' slip angle per lateral acceleration, rad per m/s^2 (a
-/// passenger car's cornering compliance, about 0.3 deg per m/s^2).
+/// The rear axle's slip angle per lateral acceleration, rad per m/s^2 (a
+/// passenger car's rear cornering compliance, about 0.3 deg per m/s^2 or
+/// 2.8 deg per g): in a turn the axle slides out by this times the speed
+/// times the lateral acceleration.
 pub const NHC_SLIP_RAD_PER_MPS2: f64 = 0.005;
+/// That compliance's prior 1-sigma, rad per m/s^2 (1.4 deg per g: rear
+/// axles from about 1.5 to 4.5 deg per g within it; Gillespie ch. 6).
+pub const NHC_SLIP_PRIOR_SIGMA_RAD_PER_MPS2: f64 = 0.0025;
+/// The slip a constant compliance does not describe, rad per m/s^2: a
+/// tyre's cornering stiffness falls by about a fifth between a gentle turn
+/// and 0.4 g, and its force lags the steering by its relaxation length.
+pub const NHC_SLIP_UNMODELLED_RAD_PER_MPS2: f64 = 0.001;
 /// The IMU's distance ahead of the point that does not slide sideways
 /// (the rear axle's centre), m: unknown on a log, its prior taken as a
 /// car's half wheelbase; a turn's rate times it is a lateral velocity.
@@ -54,10 +63,13 @@ pub const NHC_EVERY_S: f64 = 0.5;
 /// A cross velocity's 1-sigma (m/s) at `speed_mps` while the base turns
 /// at `rate_radps` (rad/s, its rotation relative to the ground): the
 /// road's [`NHC_SIGMA_MPS`], the slip of a turn's lateral acceleration
-/// `speed rate` and the rate times `lever_sigma_m` (m: what is not known
-/// of the IMU's distance from the rear axle; a host that carries that
-/// distance as a state passes 0, one that does not [`NHC_LEVER_M`]), in
-/// quadrature.
+/// `speed rate` at `slip_rad_per_mps2` (what is not known of the rear
+/// axle's slip per lateral acceleration: a host that carries the
+/// compliance as a state passes [`NHC_SLIP_UNMODELLED_RAD_PER_MPS2`], one
+/// that does not [`NHC_SLIP_RAD_PER_MPS2`]) and the rate times
+/// `lever_sigma_m` (m: what is not known of the IMU's distance from the
+/// rear axle; a host that carries that distance as a state passes 0, one
+/// that does not [`NHC_LEVER_M`]), in quadrature.
 /// The forward axis's own error is not in it: it is one constant, which
 /// updates repeated every [`NHC_EVERY_S`] as if white would average away
 /// (on a real car with the axis's yaw known to 10 deg, constraints so made
@@ -65,13 +77,18 @@ pub const NHC_EVERY_S: f64 = 0.5;
 /// ([`BaseVelocity::aux`]). `None` where the constraint does not hold:
 /// below [`NHC_MIN_SPEED_MPS`], above [`NHC_MAX_LATERAL_MPS2`], or a
 /// non-finite input.
-pub fn nhc_sigma_mps(speed_mps: f64, rate_radps: f64, lever_sigma_m: f64) -> Option<f64> {
+pub fn nhc_sigma_mps(
+    speed_mps: f64,
+    rate_radps: f64,
+    lever_sigma_m: f64,
+    slip_rad_per_mps2: f64,
+) -> Option<f64> {
     let lateral = speed_mps * rate_radps.abs();
     let ok = speed_mps.is_finite() && lateral.is_finite();
     if !ok || speed_mps < NHC_MIN_SPEED_MPS || lateral > NHC_MAX_LATERAL_MPS2 {
         return None;
     }
-    let slip = speed_mps * NHC_SLIP_RAD_PER_MPS2 * lateral;
+    let slip = speed_mps * slip_rad_per_mps2 * lateral;
     let lever = lever_sigma_m * rate_radps.abs();
     Some(libm::sqrt(
         NHC_SIGMA_MPS * NHC_SIGMA_MPS + slip * slip + lever * lever,
@@ -207,18 +224,19 @@ mod tests {
 
     #[test]
     fn the_sigma_grows_in_turns_and_is_off_where_the_car_slides_or_stands() {
-        let straight = nhc_sigma_mps(20.0, 0.0, NHC_LEVER_M).unwrap();
+        let straight = nhc_sigma_mps(20.0, 0.0, NHC_LEVER_M, NHC_SLIP_RAD_PER_MPS2).unwrap();
         assert!((straight - NHC_SIGMA_MPS).abs() < 1e-12);
         // 20 m/s at 5 deg/s: 1.75 m/s^2 lateral.
-        let turn = nhc_sigma_mps(20.0, 5f64.to_radians(), 0.0).unwrap();
+        let turn = nhc_sigma_mps(20.0, 5f64.to_radians(), 0.0, NHC_SLIP_RAD_PER_MPS2).unwrap();
         assert!(turn > 2.0 * straight, "{turn}");
         // The lever's part: 1.5 m at 5 deg/s is 0.13 m/s, in quadrature.
-        let with_lever = nhc_sigma_mps(20.0, 5f64.to_radians(), NHC_LEVER_M).unwrap();
+        let with_lever =
+            nhc_sigma_mps(20.0, 5f64.to_radians(), NHC_LEVER_M, NHC_SLIP_RAD_PER_MPS2).unwrap();
         let lever = NHC_LEVER_M * 5f64.to_radians();
         assert!((with_lever.powi(2) - turn.powi(2) - lever.powi(2)).abs() < 1e-12);
-        assert_eq!(nhc_sigma_mps(20.0, 15f64.to_radians(), 0.0), None);
-        assert_eq!(nhc_sigma_mps(0.5, 0.0, 0.0), None);
-        assert_eq!(nhc_sigma_mps(f64::NAN, 0.0, 0.0), None);
+        assert_eq!(nhc_sigma_mps(20.0, 15f64.to_radians(), 0.0, 0.0), None);
+        assert_eq!(nhc_sigma_mps(0.5, 0.0, 0.0, 0.0), None);
+        assert_eq!(nhc_sigma_mps(f64::NAN, 0.0, 0.0, 0.0), None);
     }
 
     #[test]

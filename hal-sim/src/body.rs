@@ -7,6 +7,11 @@
 //!   (squat when accelerating, dive when braking), each acceleration the
 //!   mean over the last [`LAG_S`] (the suspension's lag; it also makes the
 //!   pose twice differentiable where the plan's edges are only once);
+//! - **in turns, on its tyres**: the rear axle slides out of the turn by
+//!   its tyres' slip angle `k_slip a_lat` (the rear axle's cornering
+//!   compliance), so the body yaws that much into the turn from the road's
+//!   heading, which its rear axle's centre still follows: the point that
+//!   does not slide sideways is ahead of the axle by `k_slip speed^2`;
 //! - **on the road's roughness**: its bounce, heave, pitch and roll modes
 //!   near 1-1.8 Hz, each two sines of seeded frequency and phase, scaled by
 //!   `speed / (speed + 5 m/s)`;
@@ -40,14 +45,18 @@ pub struct Body {
     pub pitch_rad_per_mps2: f64,
     /// The IMU's height above the pivot, m.
     pub imu_above_m: f64,
+    /// The rear axle's slip angle per lateral acceleration, rad per m/s^2
+    /// (its cornering compliance).
+    pub slip_rad_per_mps2: f64,
     /// Roll, pitch (rad) and heave (m) modes: (amplitude, Hz, phase rad).
     modes: [[(f64, f64, f64); 2]; 3],
 }
 
 /// The body's pose relative to the road and its first two derivatives:
-/// `[roll rad, pitch rad, heave m (down)]` each as `[x, x', x'']` (per s,
-/// per s^2).
-pub type Pose = [[f64; 3]; 3];
+/// `[roll rad, pitch rad, heave m (down), yaw rad]` each as `[x, x',
+/// x'']` (per s, per s^2); the yaw is the slip angle's, positive to the
+/// right (into a right turn).
+pub type Pose = [[f64; 3]; 4];
 
 impl Body {
     /// A car drawn from `seed` (its own stream).
@@ -65,10 +74,14 @@ impl Body {
         let heave = mode(0.0065, 1.0, 1.5);
         let pitch_modes = mode(0.08f64.to_radians(), 1.2, 1.8);
         let roll_modes = mode(0.05f64.to_radians(), 1.0, 1.6);
+        // A passenger car's rear axle: 2-4 deg of slip per g (drawn last,
+        // so the draws above are the cars they were).
+        let slip = u(2.0, 4.0).to_radians() / g;
         Self {
             roll_rad_per_mps2: roll,
             pitch_rad_per_mps2: pitch,
             imu_above_m: above,
+            slip_rad_per_mps2: slip,
             modes: [roll_modes, pitch_modes, heave],
         }
     }
@@ -81,7 +94,7 @@ impl Body {
             self.at(tt, (s, (s - s0) / LAG_S, (psi - psi0) / LAG_S))
         };
         let (a, b, c) = (at(t - FD_S), at(t), at(t + FD_S));
-        [0, 1, 2].map(|k| {
+        [0, 1, 2, 3].map(|k| {
             [
                 b[k],
                 (c[k] - a[k]) / (2.0 * FD_S),
@@ -90,9 +103,9 @@ impl Body {
         })
     }
 
-    /// Roll, pitch (rad) and heave (m) at `t` for `(speed, accel, rate)`
-    /// (m/s, m/s^2, rad/s).
-    fn at(&self, t: f64, (speed, accel, rate): (f64, f64, f64)) -> [f64; 3] {
+    /// Roll, pitch (rad), heave (m) and slip yaw (rad) at `t` for `(speed,
+    /// accel, rate)` (m/s, m/s^2, rad/s).
+    fn at(&self, t: f64, (speed, accel, rate): (f64, f64, f64)) -> [f64; 4] {
         let road = speed / (speed + ROAD_HALF_MPS);
         let size = PARKED_SCALE + (1.0 - PARKED_SCALE) * road;
         let tau = std::f64::consts::TAU;
@@ -106,6 +119,7 @@ impl Body {
             m[0] - self.roll_rad_per_mps2 * speed * rate,
             m[1] + self.pitch_rad_per_mps2 * accel,
             m[2],
+            self.slip_rad_per_mps2 * speed * rate,
         ]
     }
 }
@@ -125,6 +139,12 @@ mod tests {
         assert!(quasi < -0.005 && (p[0][0] - quasi).abs() < 0.002, "{p:?}");
         let squat = b.pitch_rad_per_mps2 * 1.5;
         assert!(squat > 0.002 && (p[1][0] - squat).abs() < 0.003, "{p:?}");
+        // ... and yaws into it by its slip angle: 2 m/s^2 at 2-4 deg/g.
+        let slip = b.slip_rad_per_mps2 * 2.0;
+        assert!(
+            slip > 0.006 && (p[3][0] - slip).abs() < 1e-3 * slip,
+            "{p:?}"
+        );
         // Parked: the modes at their parked size, never exactly still.
         let parked = b.pose(0.3, |_| (0.0, 0.0));
         assert!(

@@ -481,27 +481,20 @@ impl Vehicle {
     /// body's [`Body::imu_above_m`] above it, moving as a rigid body.
     fn derived(&self, t: f64, axle: GeoPoint, distance: f64) -> VehicleState {
         let road = self.road(t, distance);
-        let [[ph, ph_d, ph_dd], [th, th_d, th_dd], [z, z_d, z_dd]] = self.pose(t);
+        let [[ph, ph_d, ph_dd], [th, th_d, th_dd], [z, z_d, z_dd], [ps, ps_d, ps_dd]] =
+            self.pose(t);
         let euler = |[r, p, h]: [f64; 3]| Euler {
             roll: r,
             pitch: p,
             heading: h,
         };
         let c_r_n = core_nav::site::c_b_n(&euler(road.euler));
-        let r_v_r = core_nav::site::c_b_n(&euler([ph, th, 0.0]));
-        // Ry(pitch) Ry(th) Rx(ph): the body's ZYX angles are the road's
-        // heading, the pitches' sum and the body's roll, exactly.
-        let [_, pitch, heading] = road.euler;
-        let body_euler = [ph, pitch + th, heading.rem_euclid(std::f64::consts::TAU)];
-        let c = core_nav::site::c_b_n(&euler(body_euler));
-        // The body's rate on the road (ZYX without yaw) and its derivative.
-        let (sr, cr) = (ph.sin(), ph.cos());
-        let w_rel = Vector3::new(ph_d, th_d * cr, -th_d * sr);
-        let w_rel_dot = Vector3::new(
-            ph_dd,
-            th_dd * cr - th_d * ph_d * sr,
-            -th_dd * sr - th_d * ph_d * cr,
-        );
+        // The body on the road: ZYX, the slip's yaw, the pitch, the roll.
+        let r_v_r = core_nav::site::c_b_n(&euler([ph, th, ps]));
+        let c = c_r_n * r_v_r;
+        let e = core_nav::attitude::dcm_to_euler(&c);
+        let body_euler = [e.roll, e.pitch, e.heading.rem_euclid(std::f64::consts::TAU)];
+        let (w_rel, w_rel_dot) = zyx_rate([ph, ph_d, ph_dd], [th, th_d, th_dd], [ps, ps_d, ps_dd]);
         let w_road_v = r_v_r.transpose() * road.w;
         let w = w_road_v + w_rel;
         let w_dot = r_v_r.transpose() * road.w_dot - w_rel.cross(&w_road_v) + w_rel_dot;
@@ -733,6 +726,25 @@ pub fn parse_outage(s: &str) -> Result<(f64, f64), String> {
     Ok((start, len))
 }
 
+/// The body rate (rad/s, in the rotated frame) of ZYX angles `roll`,
+/// `pitch`, `yaw` (each `[x, x', x'']`, rad, per s, per s^2) and its
+/// derivative (Groves Eq. 2.56's inverse, differentiated).
+fn zyx_rate(roll: [f64; 3], pitch: [f64; 3], yaw: [f64; 3]) -> (Vector3<f64>, Vector3<f64>) {
+    let ([ph, ph_d, ph_dd], [th, th_d, th_dd], [_, ps_d, ps_dd]) = (roll, pitch, yaw);
+    let (sr, cr, st, ct) = (ph.sin(), ph.cos(), th.sin(), th.cos());
+    let w = Vector3::new(
+        ph_d - ps_d * st,
+        th_d * cr + ps_d * sr * ct,
+        -th_d * sr + ps_d * cr * ct,
+    );
+    let w_dot = Vector3::new(
+        ph_dd - ps_dd * st - ps_d * th_d * ct,
+        th_dd * cr - th_d * ph_d * sr + ps_dd * sr * ct + ps_d * (ph_d * cr * ct - th_d * sr * st),
+        -th_dd * sr - th_d * ph_d * cr + ps_dd * cr * ct - ps_d * (ph_d * sr * ct + th_d * cr * st),
+    );
+    (w, w_dot)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -817,7 +829,7 @@ mod tests {
             let mut prev = *v.state();
             v.step(1e-3);
             let mut cur = *v.state();
-            let (mut sideways, mut rv, mut rr) = (0.0f64, 0.0, 0.0);
+            let (mut sideways, mut slid, mut rv, mut rr) = (0.0f64, 0.0f64, 0.0, 0.0);
             for _ in 0..300_000 {
                 v.step(1e-3);
                 let next = *v.state();
@@ -840,13 +852,17 @@ mod tests {
                     cur.t_s,
                     cur.v_n
                 );
-                // Sideways in `v`: the yaw rate times the arm, plus the
-                // body's roll rate times the IMU's height (zero-mean).
+                // Sideways in `v`: the rear axle's slide out of the turn
+                // (the road's speed across the body yawed by the slip),
+                // the yaw rate times the arm, plus the body's roll rate
+                // times the IMU's height (zero-mean).
                 let v_v = cur.c_v_n().transpose() * cur.v_n;
                 let rate = cur.w_nv_v.z;
-                rv += rate * v_v.y;
+                let slide = -cur.speed_mps * v.pose(cur.t_s)[3][0].sin();
+                rv += rate * (v_v.y - slide);
                 rr += rate * rate;
                 sideways = sideways.max(v_v.y.abs());
+                slid = slid.max(slide.abs());
                 prev = cur;
                 cur = next;
             }
@@ -855,6 +871,9 @@ mod tests {
             // it; measured -0.012 at both arms).
             assert!((rv / rr - ahead).abs() < 0.02, "{} vs {ahead}", rv / rr);
             assert!(sideways > 0.02, "{sideways}");
+            // A city corner's slide: 0.05-0.3 m/s (2-4 deg/g at 2-4 m/s^2
+            // and 6-14 m/s).
+            assert!(slid > 0.05 && slid < 0.3, "{slid}");
         }
     }
 }

@@ -292,7 +292,7 @@ pub fn study(seeds: &[u64], done: &(dyn Fn() + Sync)) -> Result<Vec<Coverage>> {
 pub const AIDED_SEEDS: u64 = 120;
 
 /// The rows of the aided study, in the order [`aided`] gives them.
-const AIDED_ROWS: [&str; 12] = [
+const AIDED_ROWS: [&str; 13] = [
     "antenna lever arm x (--estimate-lever-arm)",
     "antenna lever arm y (--estimate-lever-arm)",
     "antenna lever arm z (--estimate-lever-arm)",
@@ -305,10 +305,11 @@ const AIDED_ROWS: [&str; 12] = [
     "the car's forward axis in b: yaw (--vehicle car)",
     "the car's forward axis in b: pitch (--vehicle car)",
     "the IMU's distance ahead of the rear axle (--vehicle car)",
+    "the rear axle's slip per lateral acceleration (--vehicle car)",
 ];
 
 /// One drive's draws, by [`AIDED_ROWS`].
-type AidedDraws = [Option<Draw>; 12];
+type AidedDraws = [Option<Draw>; 13];
 
 /// The aided filter's estimates on one simulated city drive (NAV440 on
 /// the turning table, an RTK-grade receiver at 2 cm whose antenna sits at
@@ -452,6 +453,10 @@ fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
             error: f.imu_ahead_m - ahead,
             sigma: f.sigma_imu_ahead_m,
         }),
+        forward.map(|f| Draw {
+            error: f.rear_slip_deg_per_g - rear_slip_deg_per_g(seed),
+            sigma: f.sigma_rear_slip_deg_per_g,
+        }),
     ]])
 }
 
@@ -462,6 +467,13 @@ fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
 fn imu_ahead_m(seed: u64) -> f64 {
     let z = hal_sim::rng::Rng::new(seed, 61).normal();
     core_nav::vehicle::NHC_LEVER_M + core_nav::vehicle::NHC_LEVER_PRIOR_SIGMA_M * z
+}
+
+/// The simulated car's rear axle's slip per lateral acceleration on drive
+/// `seed` (its body, [`hal_sim::body::Body::slip_rad_per_mps2`]), deg per g.
+fn rear_slip_deg_per_g(seed: u64) -> f64 {
+    let k = hal_sim::body::Body::draw(seed).slip_rad_per_mps2;
+    (k * core_nav::units::G0_MPS2).to_degrees()
 }
 
 /// The aided study over `seeds`; `done` is told after each drive.

@@ -81,11 +81,11 @@ fn the_constraints_find_the_mounting_and_halve_the_minute_outage() {
 
 #[test]
 fn an_imu_ahead_of_the_rear_axle_is_found_and_its_turns_do_not_mislead_the_constraints() {
-    // Our simulator's car with the IMU 1.5 m ahead of the rear axle (the
-    // point that does not slide sideways), and at the axle: in a city
+    // Our simulator's car with the IMU 1.5 m ahead of the rear axle, and
+    // at the axle, the axle sliding out of turns by its tyres' slip: in a city
     // turn (up to 0.3 rad/s) the IMU then moves sideways at 0.45 m/s,
     // which the constraints must not read as the mounting's or the
-    // heading's error. The oracle is the simulator's own distance.
+    // heading's error. The oracles are the simulator's own distance and slip.
     use rins::aided::vehicle::Vehicle;
     use rins::aided::{navigate, summary, AidedOptions};
     let p = ImuSpec::icm42688();
@@ -110,10 +110,14 @@ fn an_imu_ahead_of_the_rear_axle_is_found_and_its_turns_do_not_mislead_the_const
         let s = summary(&rec, &run);
         let f = s.vehicle.unwrap().forward.unwrap();
         let o = s.outages[0];
+        let slip = hal_sim::body::Body::draw(seed).slip_rad_per_mps2;
+        let slip = (slip * core_nav::units::G0_MPS2).to_degrees();
         println!(
-            "seed {seed}: ahead {ahead} m, found {:.3} +- {:.3} m; outage end {:.2} m (largest {:.2}), {:.0} % inside 3 sigma",
+            "seed {seed}: ahead {ahead} m, found {:.3} +- {:.3} m; slip {slip:.2}, found {:.2} +- {:.2} deg/g; outage end {:.2} m (largest {:.2}), {:.0} % inside 3 sigma",
             f.imu_ahead_m,
             f.sigma_imu_ahead_m,
+            f.rear_slip_deg_per_g,
+            f.sigma_rear_slip_deg_per_g,
             o.end_error_m.unwrap(),
             o.max_error_m.unwrap(),
             100.0 * o.within_3_sigma.unwrap()
@@ -125,6 +129,13 @@ fn an_imu_ahead_of_the_rear_axle_is_found_and_its_turns_do_not_mislead_the_const
             "seed {seed}: {f:?}"
         );
         assert!(f.sigma_imu_ahead_m < 0.3, "seed {seed}: {f:?}");
+        // The rear axle's slip (the body's, drawn per drive), within 3 of
+        // its sigmas and seen (its prior is 1.4 deg/g): measured 0.5-0.8.
+        assert!(
+            (f.rear_slip_deg_per_g - slip).abs() < 3.0 * f.sigma_rear_slip_deg_per_g,
+            "seed {seed}: {f:?}"
+        );
+        assert!(f.sigma_rear_slip_deg_per_g < 1.2, "seed {seed}: {f:?}");
         assert!(o.within_3_sigma.unwrap() >= 0.95, "seed {seed}: {o:?}");
     }
 }

@@ -35,12 +35,13 @@ mod summary;
 pub mod vehicle;
 pub mod vertical;
 
-/// The host's error state: the board's `N` and four of its own (a car's
+/// The host's error state: the board's `N` and five of its own (a car's
 /// mounting yaw and pitch, its odometer's scale, the IMU's distance ahead
-/// of its rear axle: [`vehicle`]). A run that
+/// of its rear axle, its rear axle's slip per lateral acceleration:
+/// [`vehicle`]). A run that
 /// uses none leaves them at zero variance and uncorrelated, so its other
 /// states' arithmetic is the board's, term for term.
-pub const HOST_M: usize = core_nav::eskf::N + 4;
+pub const HOST_M: usize = core_nav::eskf::N + 5;
 /// The aided navigator the host runs.
 pub type HostNav<T> = core_nav::aided::AidedNav<T, HOST_M>;
 pub use plots::{fixes_en, fixless, plots};

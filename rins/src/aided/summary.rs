@@ -661,8 +661,8 @@ fn vehicle_text(v: &super::vehicle::VehicleReport) -> String {
     };
     match (&v.forward, v.found_at_s) {
         (Some(f), Some(t)) => format!(
-            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (read off the filter's velocity at {t:.1} s, then estimated); the IMU {:.2} +- {:.2} m ahead of the rear axle; {} constraint updates, {} components gated, {} due but off (standing, turning hard){odo}\n",
-            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.imu_ahead_m, f.sigma_imu_ahead_m, v.updates, v.rejected, v.off,
+            "vehicle: forward axis in b at yaw {:.2} +- {:.2} deg, pitch {:.2} +- {:.2} deg (read off the filter's velocity at {t:.1} s, then estimated); the IMU {:.2} +- {:.2} m ahead of the rear axle, which slides out of turns at {:.1} +- {:.1} deg per g; {} constraint updates, {} components gated, {} due but off (standing, turning hard){odo}\n",
+            f.yaw_deg, f.sigma_yaw_deg, f.pitch_deg, f.sigma_pitch_deg, f.imu_ahead_m, f.sigma_imu_ahead_m, f.rear_slip_deg_per_g, f.sigma_rear_slip_deg_per_g, v.updates, v.rejected, v.off,
         ),
         _ => "vehicle: no constraint made: the forward axis is read off the filter's velocity on a straight stretch above 5 m/s with fixes, and the run had none\n".into(),
     }

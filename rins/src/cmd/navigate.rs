@@ -131,10 +131,12 @@ pub struct Args {
         conflicts_with_all = ["estimate_lever_arm", "estimate_time_offset"]
     )]
     pub keep_given_arm: bool,
-    /// The base is a land vehicle (`car`): it does not slide sideways or
-    /// leave the road, and the recording's odometer.csv (if any) is its
-    /// speed. Its forward axis in b and the odometer's scale are
-    /// estimated from the first straight driving with fixes on.
+    /// The base is a land vehicle (`car`): it does not slide sideways
+    /// (beyond its tyres' slip in turns) or leave the road, and the
+    /// recording's odometer.csv (if any) is its speed. Its forward axis in
+    /// b, the IMU's distance ahead of its rear axle, that axle's slip and
+    /// the odometer's scale are estimated from the first straight driving
+    /// with fixes on.
     #[arg(long, value_name = "KIND", value_parser = ["car"], requires = "gnss")]
     pub vehicle: Option<String>,
 }

@@ -94,9 +94,10 @@ pub struct Args {
         requires = "drive"
     )]
     pub mounting_deg: Vec<f64>,
-    /// The IMU's distance ahead of the car's rear axle, m (the point that
-    /// does not slide sideways: in a turn the IMU moves sideways at the
-    /// yaw rate times this, as on a real car; 0: at the axle).
+    /// The IMU's distance ahead of the car's rear axle, m (the axle's
+    /// centre follows the road and slides out of turns by its tyres' slip;
+    /// in a turn the IMU moves sideways at the yaw rate times this more,
+    /// as on a real car; 0: at the axle).
     #[arg(long, default_value_t = 0.0, requires = "drive")]
     pub imu_ahead_m: f64,
     /// Re-simulate this recording's own run (its sample times, encoder
