@@ -61,8 +61,10 @@ fn the_offset_and_the_arm_found_together_cover_the_truth_with_their_marginal_sig
             o.offset_s, o.sigma_s, l.b_m, l.sigma_m
         );
         print!("{}", j.text());
-        // Within 3.5 of its sigmas, as the arm's own test allows (its y
-        // sigma measured optimistic by about half).
+        // Within 3.5 of its sigmas: over 12 such drives (seeds 1-12) the
+        // errors over their sigmas have an rms of 1.28, 1.24 and 1.30
+        // (offset, x, y; the book's Aided navigation), and seed 3's offset
+        // is the largest, 3.3 sigma.
         assert!((j.offset_s - LATE_S).abs() < 3.5 * j.sigma_s, "{j:?}");
         for (i, want) in ARM_B_M.iter().enumerate() {
             if let Some(s) = j.sigma_lever_m[i] {

@@ -35,7 +35,7 @@ pub struct LeverEstimate {
     /// The antenna's position from the IMU in `b`, m.
     pub b_m: [f64; 3],
     /// Each component's 1-sigma, m (`None`: not resolved by the motion,
-    /// kept as given).
+    /// kept as given, or at a first pass's least a second found flat).
     pub sigma_m: [Option<f64>; 3],
     /// The fixes' NIS per degree of freedom with the given arm and with
     /// the estimate.
@@ -103,10 +103,9 @@ pub fn estimate(
         };
         let (fine, s, _) = nis.line(&arm, axis, rough, FINE_M, 5)?;
         resolved[axis] = fine.is_finite() && s < SPAN_M;
-        // An axis a later pass finds flat goes back to as given: its
-        // earlier least was the other axes' errors, not its arm (a city
-        // drive's antenna height found at +0.8 m for -0.8, then flat).
-        arm[axis] = if resolved[axis] { fine } else { given[axis] };
+        if resolved[axis] {
+            arm[axis] = fine;
+        }
     }
     let nis_per_dof = [nis.at(&given)?.per_dof, nis.at(&arm)?.per_dof];
     let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
@@ -250,9 +249,11 @@ impl Nis<'_> {
     /// total NIS's Hessian at `arm` over all three axes by central
     /// differences of two fine steps; the model's `2 H^-1` over the
     /// resolved ones, widened by the fixes' correlated scores, and what
-    /// the unresolved ones, held as given to [`UNRESOLVED_SIGMA_M`], bend
+    /// the unresolved ones, held as the search left them to
+    /// [`UNRESOLVED_SIGMA_M`], bend
     /// them by ([`super::curvature::consider`]: an antenna height held
-    /// 1.6 m wrong put a city drive's y 3.1 of its sigmas off). None for
+    /// 1.6 m wrong put a city drive's y 3.1 of its sigmas off without
+    /// it). None for
     /// an unresolved axis, and for all when the resolved block is not
     /// positive definite (the NIS is not a bowl there).
     fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
@@ -281,7 +282,7 @@ impl Nis<'_> {
     }
 }
 
-/// How far an unresolved arm component may be from as given, m
+/// How far an unresolved arm component may be from where it is held, m
 /// (1-sigma): the first search's span, within which the recording is
 /// taken to place its antenna ([`SPAN_M`]).
 pub const UNRESOLVED_SIGMA_M: f64 = SPAN_M;
