@@ -599,6 +599,11 @@ pub struct GnssSpec {
     pub sigma_vel_mps: f64,
     /// Outages: (start s, length s); no fix inside.
     pub outages: Vec<(f64, f64)>,
+    /// The fixes' stamps on the IMU's clock are this early, s: a logger
+    /// that stamps the IMU's samples late (`navigate
+    /// --estimate-time-offset` finds `+stamp_early_s`). Fixes whose stamp
+    /// would fall before 0 are not written.
+    pub stamp_early_s: f64,
 }
 
 impl Default for GnssSpec {
@@ -612,6 +617,7 @@ impl Default for GnssSpec {
             sigma_v_m: 3.0,
             sigma_vel_mps: 0.05,
             outages: vec![],
+            stamp_early_s: 0.0,
         }
     }
 }

@@ -702,9 +702,10 @@ pub fn simulate_observed(
                 let t_fix = k_gnss as f64 / d.gnss.rate_hz;
                 if t + 0.5 * PHYS_DT >= t_fix && t_fix <= cfg.duration_s {
                     k_gnss += 1;
-                    if let Some(f) = r.fix(v.state(), t_fix) {
+                    let stamp = t_fix - d.gnss.stamp_early_s;
+                    if let Some(f) = r.fix(v.state(), t_fix).filter(|_| stamp >= 0.0) {
                         gnss_rows.push(GnssRow {
-                            t_s: t_fix,
+                            t_s: stamp,
                             lat_deg: f.pos.lat_rad.to_degrees(),
                             lon_deg: f.pos.lon_rad.to_degrees(),
                             height_m: f.pos.height_m,

@@ -83,6 +83,28 @@ pub struct Args {
     /// Longitude of the start, deg (moving base).
     #[arg(long, default_value_t = 114.35, requires = "drive")]
     pub lon_deg: f64,
+    /// The receiver's fix rate, Hz (1-20).
+    #[arg(long, default_value_t = 1.0, requires = "drive")]
+    pub gnss_rate_hz: f64,
+    /// The receiver's position 1-sigma per axis, horizontal and vertical,
+    /// m (H,V; half white, half a 60 s random drift; 0.02,0.04 for RTK).
+    #[arg(
+        long,
+        value_name = "H,V",
+        value_delimiter = ',',
+        default_values_t = [1.5, 3.0],
+        requires = "drive"
+    )]
+    pub gnss_sigma_m: Vec<f64>,
+    /// The fixes stamped this early on the IMU's clock, s (a logger that
+    /// stamps the IMU late; `navigate --estimate-time-offset` finds it).
+    #[arg(
+        long,
+        default_value_t = 0.0,
+        allow_hyphen_values = true,
+        requires = "drive"
+    )]
+    pub gnss_early_s: f64,
     /// The IMU's base mounted in the vehicle: roll, pitch, yaw, deg (ZYX;
     /// the recording's b is then not the vehicle: `navigate --vehicle
     /// car` finds it).
@@ -108,7 +130,8 @@ pub struct Args {
         "ideal", "effects", "list_effects", "sensor", "scheme", "axis", "rate_dps",
         "duration_s", "static_s", "lat_deg", "height_m", "heading_deg", "pitch_deg",
         "roll_deg", "gravity_mps2", "turns", "positions", "dwell_s", "drive",
-        "gnss_outages", "lon_deg", "mounting_deg", "imu_ahead_m",
+        "gnss_outages", "lon_deg", "mounting_deg", "imu_ahead_m", "gnss_rate_hz",
+        "gnss_sigma_m", "gnss_early_s",
     ])]
     pub like: Option<PathBuf>,
     /// The sensor model for `--like` (`rins-sim-model/1` TOML, as `rins
@@ -208,6 +231,35 @@ impl Args {
         })
     }
 
+    /// The receiver these flags describe (its outages aside).
+    fn receiver(&self) -> Result<hal_sim::drive::GnssSpec> {
+        if !(1.0..=20.0).contains(&self.gnss_rate_hz) {
+            bail!(
+                "--gnss-rate-hz {}: a receiver fixes at 1-20 Hz",
+                self.gnss_rate_hz
+            );
+        }
+        let [h, v] = self.gnss_sigma_m[..] else {
+            bail!(
+                "--gnss-sigma-m takes H,V: two values, not {}",
+                self.gnss_sigma_m.len()
+            );
+        };
+        if !(h > 0.0 && v > 0.0 && h <= 100.0 && v <= 100.0) {
+            bail!("--gnss-sigma-m {h},{v}: each in (0, 100] m");
+        }
+        if !(self.gnss_early_s.is_finite() && self.gnss_early_s.abs() <= 5.0) {
+            bail!("--gnss-early-s {}: within 5 s", self.gnss_early_s);
+        }
+        Ok(hal_sim::drive::GnssSpec {
+            rate_hz: self.gnss_rate_hz,
+            sigma_h_m: h,
+            sigma_v_m: v,
+            stamp_early_s: self.gnss_early_s,
+            ..hal_sim::drive::GnssSpec::default()
+        })
+    }
+
     /// The simulation these flags describe.
     pub fn config(&self) -> Result<SimConfig> {
         let axis = match self.axis {
@@ -243,7 +295,7 @@ impl Args {
         if let Some(kind) = &self.drive {
             let kind = hal_sim::drive::DriveKind::parse(kind)
                 .ok_or_else(|| anyhow!("--drive {kind:?}: expected city or highway"))?;
-            let mut gnss = hal_sim::drive::GnssSpec::default();
+            let mut gnss = self.receiver()?;
             for o in &self.gnss_outages {
                 let (start, len) = hal_sim::drive::parse_outage(o).map_err(|e| anyhow!(e))?;
                 if start + len > self.duration_s {
