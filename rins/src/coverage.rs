@@ -359,6 +359,7 @@ fn aided(seed: u64) -> Result<Vec<AidedDraws>> {
     };
     let with_lever = AidedOptions {
         lever_b_m: Some(lever.b_m),
+        consider: aided::consider_of(None, lever.covariance_m2),
         ..base.clone()
     };
     let offset = aided::offset::estimate(

@@ -174,7 +174,24 @@ pub fn consider(
     held_sigma: f64,
 ) -> Option<(DMatrix<f64>, f64)> {
     let e: Vec<usize> = (0..estimated.len()).filter(|i| estimated[*i]).collect();
-    let h: Vec<usize> = (0..estimated.len()).filter(|i| !estimated[*i]).collect();
+    let (all, widened) = with_held(c, per, estimated, held_sigma)?;
+    Some((all.select_rows(&e).select_columns(&e), widened))
+}
+
+/// [`consider`]'s covariance over every parameter of `c`, in its order:
+/// the estimated ones' block, the held ones' own variance `held_sigma^2`
+/// each, and between them `-A P` (an estimate moves against the held
+/// error it absorbs). What a user of both, the estimated values and the
+/// held ones, knows them to.
+pub fn with_held(
+    c: &Curvature,
+    per: f64,
+    estimated: &[bool],
+    held_sigma: f64,
+) -> Option<(DMatrix<f64>, f64)> {
+    let n = estimated.len();
+    let e: Vec<usize> = (0..n).filter(|i| estimated[*i]).collect();
+    let h: Vec<usize> = (0..n).filter(|i| !estimated[*i]).collect();
     let own = Curvature {
         hess: c.hess.select_rows(&e).select_columns(&e),
         grad: c.grad.select_rows(&e),
@@ -184,16 +201,28 @@ pub fn consider(
             .map(|b| b.select_rows(&e).select_columns(&e)),
     };
     let (cov, widened) = covariance(&own, per)?;
-    if h.is_empty() {
-        return Some((cov, widened));
-    }
+    let p = held_sigma * held_sigma;
     let a = own
         .hess
         .clone()
         .cholesky()?
         .solve(&c.hess.select_rows(&e).select_columns(&h));
-    let moved = &a * a.transpose() * (held_sigma * held_sigma);
-    Some((cov + moved, widened))
+    let ee = cov + &a * a.transpose() * p;
+    let eh = -&a * p;
+    let mut all = DMatrix::zeros(n, n);
+    for (r, &i) in e.iter().enumerate() {
+        for (q, &j) in e.iter().enumerate() {
+            all[(i, j)] = ee[(r, q)];
+        }
+        for (q, &j) in h.iter().enumerate() {
+            all[(i, j)] = eh[(r, q)];
+            all[(j, i)] = eh[(r, q)];
+        }
+    }
+    for &j in &h {
+        all[(j, j)] = p;
+    }
+    Some((all, widened))
 }
 
 #[cfg(test)]
@@ -263,5 +292,27 @@ mod tests {
         let (var, widened) = ar1_fit(0.8, 20_000, 2);
         assert!((var * n / 9.0 - 1.0).abs() < 0.33, "{var}");
         assert!((widened / 9.0 - 1.0).abs() < 0.33, "{widened}");
+    }
+    #[test]
+    fn a_held_parameter_s_error_moves_the_estimate_against_it() {
+        // Least squares of y = a + 0.5 b on 1000 unit-variance samples,
+        // b held at a value known to 2: the NIS's Hessian is 2 [[n,
+        // n/2], [n/2, n/4]]; a's own variance 1/n, and a absorbs -0.5 of
+        // b's error: its variance 1/n + 0.25 * 4, its covariance with
+        // b's error -0.5 * 4 (a closed form).
+        let n = 1000.0;
+        let c = Curvature {
+            hess: DMatrix::from_row_slice(2, 2, &[2.0 * n, n, n, 0.5 * n]),
+            grad: DVector::zeros(2),
+            scores: None,
+        };
+        let (all, _) = with_held(&c, 1.0, &[true, false], 2.0).unwrap();
+        let want = [1.0 / n + 1.0, -2.0, 4.0];
+        for (got, want) in [all[(0, 0)], all[(0, 1)], all[(1, 1)]].iter().zip(want) {
+            assert!((got - want).abs() < 1e-12, "{all}");
+        }
+        assert_eq!(all[(0, 1)], all[(1, 0)]);
+        let (own, _) = consider(&c, 1.0, &[true, false], 2.0).unwrap();
+        assert_eq!(own[(0, 0)], all[(0, 0)]);
     }
 }

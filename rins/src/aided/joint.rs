@@ -12,9 +12,9 @@
 //! what an unresolved component held as given bends them by (within a
 //! metre, [`super::lever::UNRESOLVED_SIGMA_M`]), and what the fixes'
 //! correlated innovations take from the evidence
-//! ([`super::curvature::consider`]).
+//! ([`super::curvature::with_held`]).
 
-use super::curvature::{consider, covariance, curvature, NisAt};
+use super::curvature::{covariance, curvature, with_held, NisAt};
 use super::lever::{LeverEstimate, UNRESOLVED_SIGMA_M};
 use super::offset::{fixes_nis, OffsetEstimate};
 use super::AidedOptions;
@@ -59,6 +59,11 @@ pub struct JointEstimate {
     /// correlated scores widened the widest direction
     /// ([`super::curvature::covariance`]; 1: not at all).
     pub widened: f64,
+    /// The covariance of the offset's and the arm's errors: the offset
+    /// (s), then the arm's components in `b` (m), an unresolved one known
+    /// to [`UNRESOLVED_SIGMA_M`] (what a run navigated with both carries:
+    /// [`super::AidedOptions::consider`]).
+    pub covariance: [[f64; 4]; 4],
 }
 
 /// The parameters (the offset, then the resolved arm components) and
@@ -166,10 +171,10 @@ pub fn estimate(
     bail!("no Newton iteration was made")
 }
 
-/// The covariance at the least point `x` (`f0` there) with what the
-/// unresolved arm components, held as the arm's pre-pass left them, bend
-/// the offset and the resolved ones by ([`super::curvature::consider`]
-/// over the NIS's Hessian in the offset and all three components).
+/// The covariance at the least point `x` (`f0` there) over the offset
+/// and all three arm components, with what the unresolved ones, held as
+/// the arm's pre-pass left them, bend the offset and the resolved ones by
+/// ([`super::curvature::with_held`] over the NIS's Hessian in the four).
 fn held_too(
     rec: &Recording,
     opt: &AidedOptions,
@@ -187,7 +192,7 @@ fn held_too(
     let c = curvature(&xa, &all.h, f0, &mut nis)?;
     let mut estimated = vec![true];
     estimated.extend((0..3).map(|i| p.axes.contains(&i)));
-    let Some(found) = consider(&c, f0.per_dof, &estimated, UNRESOLVED_SIGMA_M) else {
+    let Some(found) = with_held(&c, f0.per_dof, &estimated, UNRESOLVED_SIGMA_M) else {
         bail!("the fixes' NIS is not a bowl over the offset and the resolved arm together");
     };
     Ok(found)
@@ -196,6 +201,7 @@ fn held_too(
 /// The least point and the NIS's shape there.
 struct Least<'a> {
     x: &'a [f64],
+    /// Over the offset and all three components (in that order).
     cov: &'a DMatrix<f64>,
     widened: f64,
 }
@@ -251,14 +257,16 @@ fn report(
         moved: [x[0] - start[0], 0.0, 0.0, 0.0],
         iterations,
         widened: at.widened,
+        covariance: [[0.0; 4]; 4],
     };
     for (a, &i) in p.axes.iter().enumerate() {
-        let k = a + 1;
+        let (k, c) = (a + 1, i + 1);
         out.lever_b_m[i] = x[k];
-        out.sigma_lever_m[i] = Some(sd(k));
-        out.correlation[i] = Some(cov[(0, k)] / (sd(0) * sd(k)));
+        out.sigma_lever_m[i] = Some(sd(c));
+        out.correlation[i] = Some(cov[(0, c)] / (sd(0) * sd(c)));
         out.moved[i + 1] = x[k] - start[k];
     }
+    out.covariance = std::array::from_fn(|r| std::array::from_fn(|c| cov[(r, c)]));
     out
 }
 

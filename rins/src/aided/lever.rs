@@ -40,6 +40,11 @@ pub struct LeverEstimate {
     /// The fixes' NIS per degree of freedom with the given arm and with
     /// the estimate.
     pub nis_per_dof: [f64; 2],
+    /// The covariance of the arm's errors, `b`, m^2: an unresolved
+    /// component known to [`UNRESOLVED_SIGMA_M`] and what it moves the
+    /// resolved ones by (`None` when none is resolved or the NIS is no
+    /// bowl: the arm's error is then not known).
+    pub covariance_m2: Option<[[f64; 3]; 3]>,
 }
 
 /// The passes: each axis coarse then fine; then each fine again about the
@@ -108,12 +113,18 @@ pub fn estimate(
         }
     }
     let nis_per_dof = [nis.at(&given)?.per_dof, nis.at(&arm)?.per_dof];
-    let sigma_m = nis.marginal_sigmas(&arm, resolved)?;
+    let covariance_m2 = nis.covariance(&arm, resolved)?;
+    let sigma_m: [Option<f64>; 3] = std::array::from_fn(|i| {
+        covariance_m2
+            .filter(|_| resolved[i])
+            .and_then(|c| c.get(i).and_then(|r| r.get(i)).map(|v| v.sqrt()))
+    });
     Ok(LeverEstimate {
         given_b_m: given,
         b_m: arm,
         sigma_m,
         nis_per_dof,
+        covariance_m2,
     })
 }
 
@@ -245,7 +256,7 @@ impl Nis<'_> {
         )
     }
 
-    /// The resolved axes' marginal 1-sigmas ([`super::curvature`]: the
+    /// The arm's covariance, `b`, m^2 ([`super::curvature`]: the
     /// total NIS's Hessian at `arm` over all three axes by central
     /// differences of two fine steps; the model's `2 H^-1` over the
     /// resolved ones, widened by the fixes' correlated scores, and what
@@ -253,12 +264,12 @@ impl Nis<'_> {
     /// [`UNRESOLVED_SIGMA_M`], bend
     /// them by ([`super::curvature::consider`]: an antenna height held
     /// 1.6 m wrong put a city drive's y 3.1 of its sigmas off without
-    /// it). None for
-    /// an unresolved axis, and for all when the resolved block is not
-    /// positive definite (the NIS is not a bowl there).
-    fn marginal_sigmas(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<[Option<f64>; 3]> {
+    /// it); the unresolved ones' own variance theirs. `None` when none
+    /// is resolved or the resolved block is not positive definite (the
+    /// NIS is not a bowl there).
+    fn covariance(&mut self, arm: &[f64; 3], resolved: [bool; 3]) -> Result<Option<[[f64; 3]; 3]>> {
         if !resolved.contains(&true) {
-            return Ok([None; 3]);
+            return Ok(None);
         }
         let f0 = self.at(arm)?;
         let h = vec![2.0 * FINE_M; 3];
@@ -270,15 +281,8 @@ impl Nis<'_> {
             self.at(&l)
         };
         let c = super::curvature::curvature(arm, &h, &f0, &mut nis)?;
-        let mut out = [None; 3];
-        let found = super::curvature::consider(&c, f0.per_dof, &resolved, UNRESOLVED_SIGMA_M);
-        if let Some((cov, _)) = found {
-            let axes = (0..3).filter(|i| resolved[*i]);
-            for (a, i) in axes.enumerate() {
-                out[i] = Some(cov[(a, a)].sqrt());
-            }
-        }
-        Ok(out)
+        let found = super::curvature::with_held(&c, f0.per_dof, &resolved, UNRESOLVED_SIGMA_M);
+        Ok(found.map(|(cov, _)| std::array::from_fn(|i| std::array::from_fn(|j| cov[(i, j)]))))
     }
 }
 

@@ -84,6 +84,32 @@ pub struct AidedOptions {
     /// Learn the ride's vertical noise from the fixes in a first pass and
     /// add it ([`vertical`]; on unless `--vertical-noise file`).
     pub vertical_learn: bool,
+    /// The covariance of the errors of `time_offset_s` (s) and
+    /// `lever_b_m` (`b`, m) when they were estimated (`None`: given, taken
+    /// as exact). The filter holds them; the trajectory's position sigmas
+    /// carry what they move the IMU's position by (Schmidt's consider:
+    /// [`pipeline::Consider`]).
+    pub consider: Option<[[f64; 4]; 4]>,
+}
+
+/// [`AidedOptions::consider`] from an estimated offset's 1-sigma (s) and
+/// an estimated arm's covariance (`b`, m^2), each found alone (`None`:
+/// given, exact); `None` when neither was estimated.
+pub fn consider_of(
+    offset_sigma_s: Option<f64>,
+    arm_m2: Option<[[f64; 3]; 3]>,
+) -> Option<[[f64; 4]; 4]> {
+    if offset_sigma_s.is_none() && arm_m2.is_none() {
+        return None;
+    }
+    let arm = arm_m2.unwrap_or([[0.0; 3]; 3]);
+    Some(std::array::from_fn(|r| {
+        std::array::from_fn(|c| match (r, c) {
+            (0, 0) => offset_sigma_s.map_or(0.0, |s| s * s),
+            (0, _) | (_, 0) => 0.0,
+            _ => arm[r - 1][c - 1],
+        })
+    }))
 }
 
 /// The innovation gate the CLI and the tools use unless told, sigmas.
@@ -109,6 +135,7 @@ impl AidedOptions {
             lever_b_m: None,
             learn_noise: false,
             vertical_learn: true,
+            consider: None,
         }
     }
 }
@@ -271,6 +298,10 @@ pub struct AidedRun {
     /// When the fixes' velocity was valid, found from their positions
     /// (`None`: too few fixes with a velocity).
     pub velocity_lag: Option<fixvel::VelocityLag>,
+    /// The largest 1-sigma the estimated clock and arm added to the
+    /// position, north, east, down, m ([`pipeline::Consider`]; `None`:
+    /// both given).
+    pub considered_m: Option<[f64; 3]>,
 }
 
 /// The fixes the filter gets: each at its time on the IMU's clock

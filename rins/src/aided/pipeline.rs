@@ -411,6 +411,46 @@ pub fn solution_row<T: Real>(
     (row, c_b_n)
 }
 
+/// What the estimated clock's and arm's errors (their covariance, the
+/// offset s then the arm in `b` m: [`AidedOptions::consider`]) move the
+/// IMU's position by, NED, m^2: `J P Jᵀ` with `J = [v_n, C_b^n]` (a fix
+/// compared with the track `dt` late, the antenna `dl` off, puts the IMU
+/// `v_n dt + C_b^n dl` off), `J` taken at the last fix the run took and
+/// frozen through an outage (the error it left then is what the run
+/// carries).
+pub struct Consider {
+    cov: nalgebra::Matrix4<f64>,
+    j: Option<nalgebra::Matrix3x4<f64>>,
+}
+
+impl Consider {
+    /// For the covariance `cov` (the offset, then the arm).
+    pub fn new(cov: [[f64; 4]; 4]) -> Self {
+        Self {
+            cov: nalgebra::Matrix4::from_fn(|r, c| cov[r][c]),
+            j: None,
+        }
+    }
+
+    /// `row`'s position sigmas widened by the considered covariance, which
+    /// is returned (NED, m^2); `c_b_n` is the row's attitude.
+    pub fn add(&mut self, row: &mut AidedRow, c_b_n: &Matrix3<f64>) -> Matrix3<f64> {
+        if row.fix || self.j.is_none() {
+            let mut j = nalgebra::Matrix3x4::zeros();
+            j.set_column(0, &nalgebra::Vector3::from(row.traj.v_mps));
+            j.fixed_view_mut::<3, 3>(0, 1).copy_from(c_b_n);
+            self.j = Some(j);
+        }
+        let e = self
+            .j
+            .map_or(Matrix3::zeros(), |j| j * self.cov * j.transpose());
+        for (i, s) in row.sigma_p_m.iter_mut().enumerate() {
+            *s = (*s * *s + e[(i, i)]).sqrt();
+        }
+        e
+    }
+}
+
 /// The NEES of `row` (attitude `c_b_n`) against the truth `tr` over every
 /// state the trajectory reports but height (north, east, the three
 /// velocities, the attitude's rotation error `phi` about north, east and
@@ -421,6 +461,7 @@ pub fn nees_against<T: Real>(
     row: &AidedRow,
     c_b_n: &Matrix3<f64>,
     tr: &TruthRow,
+    considered: Option<Matrix3<f64>>,
 ) -> Option<(f64, Option<f64>)> {
     let [r, p, h] = tr.euler_deg;
     let c_true = quat_to_dcm(&euler_to_quat(&Euler::<f64>::from_deg(r, p, h)));
@@ -446,12 +487,16 @@ pub fn nees_against<T: Real>(
         I_PHI + 1,
         I_PHI + 2,
     ];
-    let p8 = nalgebra::SMatrix::<f64, 8, 8>::from_fn(|r, c| {
+    let mut p8 = nalgebra::SMatrix::<f64, 8, 8>::from_fn(|r, c| {
         idx.get(r)
             .zip(idx.get(c))
             .and_then(|(i, j)| kf.p.get((*i, *j)))
             .map_or(f64::NAN, |x| x.to_f64())
     });
+    if let Some(e) = considered {
+        let mut ne = p8.fixed_view_mut::<2, 2>(0, 0);
+        ne += e.fixed_view::<2, 2>(0, 0);
+    }
     let ch = p8.cholesky()?;
     let nees = e.dot(&ch.solve(&e));
     let pa = p8.fixed_view::<3, 3>(5, 5).into_owned();
@@ -518,6 +563,7 @@ pub fn run_with<T: Real>(
     let tangent = earth.origin.tangent();
     let mut feed = FixFeed::new();
     let mut last_fix_s = f64::NEG_INFINITY;
+    let mut consider = opt.consider.map(Consider::new);
     let n = rec.imu.len();
     let every_s = rec.meta.imu_rate_hz.round().max(1.0) as usize;
     for (k, r) in rec.imu.iter().enumerate() {
@@ -555,7 +601,12 @@ pub fn run_with<T: Real>(
                 a.after_step(&mut an, &at);
             }
         }
-        let (row, c_b_n) = solution_row(&an, &table, &step, t, &earth, &tangent);
+        let (mut row, c_b_n) = solution_row(&an, &table, &step, t, &earth, &tangent);
+        let extra = consider.as_mut().map(|c| c.add(&mut row, &c_b_n));
+        if let Some(e) = extra {
+            let was = run.considered_m.unwrap_or([0.0; 3]);
+            run.considered_m = Some(std::array::from_fn(|i| was[i].max(e[(i, i)].sqrt())));
+        }
         run.rows.push(row);
         if an.counts.reinits > reinits_before {
             run.reinit_at.push((t, super::reinit_jump_m(&run.rows)));
@@ -563,7 +614,7 @@ pub fn run_with<T: Real>(
         if k % every_s == 0 {
             if let Some(tr) = recording::moving::truth_at(input.truth, t) {
                 run.nees_diag.push((t, super::diagonal_nees(&row, &tr)));
-                if let Some((nees, att)) = nees_against(&an.kf, &row, &c_b_n, &tr) {
+                if let Some((nees, att)) = nees_against(&an.kf, &row, &c_b_n, &tr, extra) {
                     run.nees.push((t, nees, 8));
                     if let Some(a) = att {
                         run.nees_attitude.push((t, a));
@@ -578,4 +629,48 @@ pub fn run_with<T: Real>(
     finish(&an, aids, &mut run);
     progress(1.0);
     Ok(run)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(v: [f64; 3], fix: bool) -> AidedRow {
+        let mut r = AidedRow {
+            sigma_p_m: [0.03, 0.04, 0.05],
+            fix,
+            ..AidedRow::default()
+        };
+        r.traj.v_mps = v;
+        r
+    }
+
+    #[test]
+    fn the_clock_s_and_the_arm_s_errors_widen_the_position_and_stay_through_an_outage() {
+        // A clock known to 2 ms and an arm to 1, 2 and 10 cm (independent);
+        // the base yawed 90 deg (b's x north-east: n = C b with C's x ->
+        // east, y -> -north). At 20 m/s north the clock puts 4 cm north;
+        // the arm's x goes east, its y north, z down (a closed form).
+        let cov = crate::aided::consider_of(
+            Some(0.002),
+            Some([[1e-4, 0.0, 0.0], [0.0, 4e-4, 0.0], [0.0, 0.0, 1e-2]]),
+        );
+        let mut c = Consider::new(cov.unwrap());
+        let yawed = Matrix3::new(0.0, -1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+        let mut fixed = row([20.0, 0.0, 0.0], true);
+        c.add(&mut fixed, &yawed);
+        let want = [
+            (0.03f64.powi(2) + 0.04f64.powi(2) + 4e-4).sqrt(),
+            (0.04f64.powi(2) + 1e-4).sqrt(),
+            (0.05f64.powi(2) + 1e-2).sqrt(),
+        ];
+        for (got, want) in fixed.sigma_p_m.iter().zip(want) {
+            assert!((got - want).abs() < 1e-12, "{:?}", fixed.sigma_p_m);
+        }
+        // In the outage that follows the car turns east and stops: what
+        // the last fix left is carried, unchanged.
+        let mut after = row([0.0, 0.0, 0.0], false);
+        c.add(&mut after, &Matrix3::identity());
+        assert_eq!(after.sigma_p_m, fixed.sigma_p_m);
+    }
 }

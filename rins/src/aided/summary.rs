@@ -48,6 +48,9 @@ pub struct AidedSummary {
     /// user computes from trajectory.csv's sigma columns alone (a
     /// diagonal covariance), with truth.
     pub nees_diag_in_95: Option<f64>,
+    /// The share of those seconds above the upper bound (the sigmas too
+    /// small); the rest outside are below it (too large: cautious).
+    pub nees_diag_above_95: Option<f64>,
     /// Zero-velocity updates, gate rejections, refusals, mechanization faults.
     pub zupts: u32,
     /// Zero-rotation updates (one per still window).
@@ -88,6 +91,9 @@ pub struct AidedSummary {
     /// When the fixes' velocity was valid, from their own positions
     /// (`None`: too few fixes with a velocity to tell).
     pub fix_velocity_lag: Option<super::fixvel::VelocityLag>,
+    /// The largest 1-sigma the estimated clock and antenna arm added to
+    /// the position sigmas, north, east, down, m (`None`: both given).
+    pub considered_m: Option<[f64; 3]>,
 }
 
 /// The stretches of zero-velocity updates in `run`.
@@ -148,6 +154,9 @@ pub struct OutageError {
     /// columns alone, against a truth with attitude) is inside its 95 %
     /// bounds.
     pub nees_diag_in_95: Option<f64>,
+    /// The share of its seconds above the upper bound (the sigmas too
+    /// small; the rest outside are cautious).
+    pub nees_diag_above_95: Option<f64>,
 }
 
 /// The receiver's solution as a reference: each fix's position as offsets
@@ -239,6 +248,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         moving_start: run.moving_start,
         start: run.start,
         fix_velocity_lag: run.velocity_lag,
+        considered_m: run.considered_m,
         ..AidedSummary::default()
     };
     s.outages = run
@@ -274,6 +284,7 @@ pub fn summary(rec: &Recording, run: &AidedRun) -> AidedSummary {
         run.nees_attitude.iter().map(|x| x.1 / 3.0).sum::<f64>() / run.nees_attitude.len() as f64
     });
     s.nees_diag_in_95 = diag_in_95(run.nees_diag.iter());
+    s.nees_diag_above_95 = diag_above_95(run.nees_diag.iter());
     s
 }
 
@@ -373,7 +384,8 @@ impl Errors<'_> {
                 v_errs.iter().filter(|(e, sd)| *e <= 3.0 * sd).count(),
                 v_errs.len(),
             ),
-            nees_diag_in_95: diag_in_95(diag),
+            nees_diag_in_95: diag_in_95(diag.clone()),
+            nees_diag_above_95: diag_above_95(diag),
         }
     }
 
@@ -471,12 +483,36 @@ pub fn nees_stats(nees: &[(f64, f64, usize)]) -> (Option<f64>, Option<f64>) {
 /// columns alone) inside its 95 % bounds (`None` for none).
 pub fn diag_in_95<'a>(nees: impl Iterator<Item = &'a (f64, f64)>) -> Option<f64> {
     let (lo, hi) = chi2_95_bounds(9);
-    let (mut n, mut inside) = (0usize, 0usize);
+    diag_share(nees, |per_dof| (lo..=hi).contains(&per_dof))
+}
+
+/// The share of those seconds above the upper 95 % bound (`None` for none).
+pub fn diag_above_95<'a>(nees: impl Iterator<Item = &'a (f64, f64)>) -> Option<f64> {
+    let (_, hi) = chi2_95_bounds(9);
+    diag_share(nees, |per_dof| per_dof > hi)
+}
+
+fn diag_share<'a>(
+    nees: impl Iterator<Item = &'a (f64, f64)>,
+    counts: impl Fn(f64) -> bool,
+) -> Option<f64> {
+    let (mut n, mut hit) = (0usize, 0usize);
     for x in nees {
         n += 1;
-        inside += usize::from((lo..=hi).contains(&(x.1 / 9.0)));
+        hit += usize::from(counts(x.1 / 9.0));
     }
-    (n > 0).then(|| inside as f64 / n as f64)
+    (n > 0).then(|| hit as f64 / n as f64)
+}
+
+/// ", N % below (cautious), M % above" of a share inside and above.
+fn diag_sides(inside: f64, above: Option<f64>) -> String {
+    above.map_or(String::new(), |a| {
+        format!(
+            " ({:.0} % below them, cautious; {:.0} % above)",
+            100.0 * (1.0 - inside - a).max(0.0),
+            100.0 * a
+        )
+    })
 }
 
 impl AidedSummary {
@@ -540,8 +576,9 @@ impl AidedSummary {
             }
             if let Some(d) = g.nees_diag_in_95 {
                 o += &format!(
-                    "  its sigma columns (9 dof, diagonal NEES): {:.0} % of its seconds inside the 95 % bounds\n",
-                    100.0 * d
+                    "  its sigma columns (9 dof, diagonal NEES): {:.0} % of its seconds inside the 95 % bounds{}\n",
+                    100.0 * d,
+                    diag_sides(d, g.nees_diag_above_95)
                 );
             }
         }
@@ -563,8 +600,14 @@ impl AidedSummary {
         }
         if let Some(d) = self.nees_diag_in_95 {
             o += &format!(
-                "the sigma columns alone (9 dof, diagonal): {:.0} % of seconds inside the 95 % bounds\n",
-                100.0 * d
+                "the sigma columns alone (9 dof, diagonal): {:.0} % of seconds inside the 95 % bounds{}\n",
+                100.0 * d,
+                diag_sides(d, self.nees_diag_above_95)
+            );
+        }
+        if let Some([n, e, d]) = self.considered_m {
+            o += &format!(
+                "the position sigmas carry the estimated clock's and antenna arm's errors: up to {n:.3}, {e:.3}, {d:.3} m (1-sigma north, east, down)\n"
             );
         }
         o += &format!(
@@ -696,7 +739,7 @@ mod tests {
             .collect();
         let run = AidedRun {
             rows,
-            nees_diag: vec![(2.0, 9.0), (3.0, 0.0), (20.0, 9.0)],
+            nees_diag: vec![(2.0, 9.0), (3.0, 0.0), (4.0, 900.0), (20.0, 9.0)],
             ..AidedRun::default()
         };
         (run, truth)
@@ -716,9 +759,11 @@ mod tests {
             assert_eq!(g.within_3_sigma, Some(inside));
             assert_eq!(g.end_height_error_m, Some(0.5));
             assert_eq!(g.height_within_3_sigma, Some(1.0));
-            // Its seconds of the diagonal NEES: 9 (per dof 1, inside) and
-            // 0 (below the lower bound); the one at 20 s is not its.
-            assert_eq!(g.nees_diag_in_95, Some(0.5));
+            // Its seconds of the diagonal NEES: 9 (per dof 1, inside), 0
+            // (below the lower bound) and 900 (above the upper); the one at
+            // 20 s is not its.
+            assert_eq!(g.nees_diag_in_95, Some(1.0 / 3.0));
+            assert_eq!(g.nees_diag_above_95, Some(1.0 / 3.0));
         }
     }
 

@@ -543,6 +543,7 @@ fn aided_options(
         lever_b_m: None,
         learn_noise: a.learn_noise,
         vertical_learn: a.vertical_noise == "learn",
+        consider: None,
     })
 }
 
@@ -576,6 +577,7 @@ fn asked_estimates(
         pb.finish_and_clear();
         println!("{}", lever_line(&e));
         opt.lever_b_m = Some(e.b_m);
+        opt.consider = rins::aided::consider_of(None, e.covariance_m2);
         asked.lever = Some(e);
     }
     if a.estimate_time_offset {
@@ -589,6 +591,8 @@ fn asked_estimates(
             e.offset_s, e.sigma_s
         );
         opt.time_offset_s = e.offset_s;
+        let arm = asked.lever.as_ref().and_then(|l| l.covariance_m2);
+        opt.consider = rins::aided::consider_of(Some(e.sigma_s), arm);
         asked.offset = Some(e);
     }
     if let (Some(o), Some(l)) = (&asked.offset, &asked.lever) {
@@ -600,6 +604,7 @@ fn asked_estimates(
         print!("{}", e.text());
         opt.time_offset_s = e.offset_s;
         opt.lever_b_m = Some(e.lever_b_m);
+        opt.consider = Some(e.covariance);
         asked.joint = Some(e);
     }
     Ok(asked)
@@ -656,6 +661,10 @@ fn follow_hints(
     if let (Some(b), Some(l)) = (refuted, lever.as_mut()) {
         let theirs = rins::aided::AidedOptions {
             lever_b_m: Some(b),
+            consider: rins::aided::consider_of(
+                None,
+                l.estimate.as_ref().and_then(|e| e.covariance_m2),
+            ),
             ..opt.clone()
         };
         match again_if_better(rec, &theirs, &now.1, "the fixes' arm")? {
@@ -685,16 +694,21 @@ fn take_clock(
     rins::aided::joint::for_hint(rec, opt, h, &mut |f| pb.set_position((f * 1000.0) as u64));
     pb.finish_and_clear();
     let found = match (&h.together, &h.estimate) {
-        (Some(j), _) => Some((j.offset_s, Some(j.lever_b_m))),
-        (None, Some(e)) if h.recommended => Some((e.offset_s, opt.lever_b_m)),
+        (Some(j), _) => Some((j.offset_s, Some(j.lever_b_m), Some(j.covariance))),
+        (None, Some(e)) if h.recommended => Some((
+            e.offset_s,
+            opt.lever_b_m,
+            rins::aided::consider_of(Some(e.sigma_s), None),
+        )),
         _ => None,
     };
-    let Some((time_offset_s, lever_b_m)) = found else {
+    let Some((time_offset_s, lever_b_m, consider)) = found else {
         return Ok(());
     };
     let theirs = rins::aided::AidedOptions {
         time_offset_s,
         lever_b_m,
+        consider,
         ..opt.clone()
     };
     match again_if_better(rec, &theirs, &now.1, "the clock found")? {
