@@ -101,7 +101,7 @@ pub const ITERATIONS: usize = 8;
 const MAX_STEP: f64 = 25.0;
 /// Converged when every component of the next Newton step is within this
 /// share of its marginal sigma.
-const CONVERGED_SIGMAS: f64 = 0.2;
+pub(super) const CONVERGED_SIGMAS: f64 = 0.2;
 
 /// Estimates the offset and the arm together, starting from the separate
 /// estimates `offset` and `lever` (`opt` navigated with both): damped
@@ -209,7 +209,7 @@ struct Least<'a> {
 /// The damped step from `x` along `newton` (each component clamped to
 /// [`MAX_STEP`] stencil steps, halved while the NIS is not below `f0`, up
 /// to [`BACKTRACKS`] times); `None` when no halving lowers it.
-fn descend(
+pub(super) fn descend(
     x: &[f64],
     newton: &DVector<f64>,
     h: &[f64],
